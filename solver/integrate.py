@@ -64,6 +64,9 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
         state0 = solve_static(model, t_start)
     if not (t_end > t_start):
         raise ValueError(f"t_end {t_end!r} must be after the start time {t_start!r}")
+    if abs(state0.reel_length - float(np.sum(state0.rest))) > 1e-9 * max(1.0, state0.reel_length):
+        raise ValueError(f"initial state: reel_length {state0.reel_length:.6g} m differs from the sum "
+                         f"of the element rest lengths {float(np.sum(state0.rest)):.6g} m")
     dt_stable = model.stable_step()
     dt = dt_stable if dt is None else float(dt)
     if not (0 < dt):
@@ -94,6 +97,7 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
     out_reel = np.full((nrec, 6), np.nan)
     out_end = np.zeros((nrec, 3))
     out_energy = np.full((nrec, 2), np.nan)
+    out_mom = np.full((nrec, 11), np.nan)
     out_n = np.zeros(nrec, dtype=int)
 
     rest = state0.rest.copy()
@@ -110,11 +114,10 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
     acc = F / mass[:, None]
     acc[0] = 0.0
     vel_half = vel - 0.5 * dt * acc
-    reel = np.zeros(7)
+    reel = np.zeros(10)
     reel[0] = state0.reel_length
     reel[1] = state0.reel_speed
     end_reaction = np.zeros(3)
-    flux_events = np.zeros(3)
 
     k_done = 0
     rec = 0
@@ -123,7 +126,7 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
         code, steps, rec_new, bad = K.run_steps(
             t0, dt, nsteps_total - k_done, rec_every, k_done % rec_every, P, n, nh, pos, vel_half, acc, mass, rest_all,
             ka, ca, kb, cb, model.wind.kernel, model.wind.params, *tabs, reel,
-            out_t, out_pos, out_vel, out_tension, out_reel, out_end, out_energy, rec, work,
+            out_t, out_pos, out_vel, out_tension, out_reel, out_end, out_energy, out_mom, rec, work,
             end_reaction)
         out_n[rec:rec_new] = n
         rec = rec_new
@@ -141,15 +144,14 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
         # remesh at the reel exit, then restart on the same record grid
         pos, vel_half, acc, rest, dflux = _remesh(code, model, nh, pos, vel_half, acc, rest, mass,
                                                   reel[0])
-        flux_events += dflux
+        reel[4:7] += dflux
         nh = len(rest)
         n, mass, rest_all, ka, ca, kb, cb = model.build_arrays(nh, rest)
         P = model.params(nh, rest, reel_tension)
-    reel[4:7] += flux_events
     return SimulationResult.from_arrays(
         model=model, t=out_t[:rec], pos=out_pos[:rec], vel=out_vel[:rec], tension=out_tension[:rec],
         reel=out_reel[:rec], end_force=out_end[:rec], energy=out_energy[:rec], n_nodes=out_n[:rec],
-        dt=dt, reel_mass_in=float(reel[3]), momentum_flux=reel[4:7].copy(), reel_tension_set=reel_tension)
+        balance=out_mom[:rec], dt=dt, reel_tension_set=reel_tension)
 
 
 def _reel_set_point(model: Model, state0: State, rest: np.ndarray) -> float:

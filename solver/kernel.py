@@ -363,15 +363,19 @@ def potential_energy(P, n, nh, pos, rest, ka, kb):
 def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc_prev, mass, rest, ka, ca,
               kb, cb, wind_fn, wind_par, tow_t0, tow_dt, tow_tab, end_t0, end_dt, end_tab,
               reel_t0, reel_dt, reel_tab, reel, out_t, out_pos, out_vel, out_tension,
-              out_reel, out_end_force, out_energy, rec_start, extra_work, end_reaction):
+              out_reel, out_end_force, out_energy, out_mom, rec_start, extra_work, end_reaction):
     """Advance the leapfrog (velocity at half steps) up to `nsteps` steps.
 
     Velocity-dependent forces (damping, aerodynamics) use the velocity
     extrapolated to the full step, v(t) ~ v(t-dt/2) + a(t-dt) dt/2, which keeps the
     scheme second order for weak damping and exactly symplectic without it.
 
-    reel = [L_out, Ldot, drum_tension_at_exit, cumulative mass taken in, cumulative
-    momentum flux x, y, z]. Returns (code, steps_done, records_done, bad_node).
+    reel = [L_out, Ldot, exit tension, cumulative mass taken in, cumulative momentum
+    carried across the reel exit (x, y, z), cumulative impulse of the hose on the tow
+    point (x, y, z)]. out_mom records the free nodes' mass, node 0's mass and the free
+    nodes' momentum at the half step, with the two cumulative sums, so a test can
+    check the momentum balance to round-off. Returns (code, steps_done,
+    records_done, bad_node).
     """
     F = np.zeros((n, 3))
     tension = np.zeros(n)
@@ -454,7 +458,8 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
         reel[2] = tension[0]
         reel[3] -= dm
         for c in range(3):
-            reel[4 + c] += dm * vel[1, c]
+            reel[4 + c] += dm * vel_half[1, c]
+            reel[7 + c] += dt * F[0, c]
         # kick
         for i in range(1, n):
             inv = 1.0 / mass[i]
@@ -503,6 +508,22 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
                 gpe -= mass[i] * (P[P_GX] * pos[i, 0] + P[P_GY] * pos[i, 1] + P[P_GZ] * pos[i, 2])
             out_energy[rec, 0] = ke
             out_energy[rec, 1] = pe + gpe
+            mfree = 0.0
+            px = 0.0
+            py = 0.0
+            pz = 0.0
+            for i in range(1, n):
+                mfree += mass[i]
+                px += mass[i] * vel_half[i, 0]
+                py += mass[i] * vel_half[i, 1]
+                pz += mass[i] * vel_half[i, 2]
+            out_mom[rec, 0] = mfree
+            out_mom[rec, 1] = 0.5 * mu * rest[0]
+            out_mom[rec, 2] = px
+            out_mom[rec, 3] = py
+            out_mom[rec, 4] = pz
+            for c in range(6):
+                out_mom[rec, 5 + c] = reel[4 + c]
             rec += 1
         # drift
         for i in range(1, n):

@@ -27,6 +27,10 @@ class SimulationResult:
     energy_kinetic, energy_potential: J (potential: elastic plus gravity).
     n_hose_elements: (nt,) element count at each record.
     hinge_angle_deg: (nt,) angle between the last hose element and the drogue axis.
+    balance: (nt, 11) mass and momentum bookkeeping: free-node mass (kg), node 0's
+        half-element mass (kg), free-node momentum at the half step (kg m/s, 3),
+        cumulative momentum carried across the reel exit (3), cumulative impulse of
+        the hose on the tow point (N s, 3).
     """
 
     t: np.ndarray
@@ -44,15 +48,14 @@ class SimulationResult:
     drogue_xyz: Optional[np.ndarray] = None
     drogue_vel: Optional[np.ndarray] = None
     hinge_angle_deg: Optional[np.ndarray] = None
+    balance: Optional[np.ndarray] = None
     dt: float = float("nan")
-    reel_mass_in: float = 0.0
-    momentum_flux: np.ndarray = field(default_factory=lambda: np.zeros(3))
     reel_tension_set: float = 0.0
     provenance: dict = field(default_factory=dict)
 
     @classmethod
-    def from_arrays(cls, model, t, pos, vel, tension, reel, end_force, energy, n_nodes, dt,
-                    reel_mass_in, momentum_flux, reel_tension_set):
+    def from_arrays(cls, model, t, pos, vel, tension, reel, end_force, energy, n_nodes, balance, dt,
+                    reel_tension_set):
         nt, n_max, _ = pos.shape
         extra = 1 if model.has_drogue else 0
         nh = n_nodes - 1 - extra          # hose elements per record
@@ -82,8 +85,7 @@ class SimulationResult:
             reel_exit_tension=reel[:, 2].copy(), tow_force=reel[:, 3:6].copy(),
             probe_force=-end_force.copy(), energy_kinetic=energy[:, 0].copy(),
             energy_potential=energy[:, 1].copy(), n_hose_elements=nh,
-            drogue_xyz=drogue, drogue_vel=dvel, hinge_angle_deg=hinge, dt=dt,
-            reel_mass_in=reel_mass_in, momentum_flux=momentum_flux,
+            drogue_xyz=drogue, drogue_vel=dvel, hinge_angle_deg=hinge, balance=balance, dt=dt,
             reel_tension_set=reel_tension_set)
 
     @property
