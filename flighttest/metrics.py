@@ -285,7 +285,8 @@ def _refine_extremum(t: np.ndarray, y: np.ndarray, i: int, half: int) -> tuple[f
 
 
 def log_decrement(t, y, *, f_hint: float | None = None, noise: float | None = None,
-                  min_snr: float = 10.0, max_half_cycles: int | None = None) -> LogDecrement:
+                  min_snr: float = 10.0, min_amplitude: float | None = None,
+                  max_half_cycles: int | None = None) -> LogDecrement:
     """Damping ratio from the logarithmic decrement of successive extrema.
 
     Method: find alternating maxima and minima (at least 0.6 period apart),
@@ -297,7 +298,9 @@ def log_decrement(t, y, *, f_hint: float | None = None, noise: float | None = No
     so s is minus the slope of a straight-line fit of ln D_k on time, w is
     pi over the mean extremum spacing, and zeta = s / sqrt(s^2 + w^2).
     Extrema are used while D_k exceeds `min_snr` times its own noise,
-    derived from the sample noise std (`noise`, or `noise_std(y)`).  `spread` is the scatter of the
+    derived from the white sample noise std (`noise`, or `noise_std(y)`),
+    and `min_amplitude` when given (for coloured disturbances such as
+    turbulence, which no averaging over a peak removes).  `spread` is the scatter of the
     half-cycle-to-half-cycle estimates, a measure of noise and of
     amplitude-dependent (nonlinear) damping.  Needs uniform sampling.
     """
@@ -340,10 +343,11 @@ def log_decrement(t, y, *, f_hint: float | None = None, noise: float | None = No
     # over 4 multiplies that by sqrt(6) / 4.
     n_win = 2 * half + 1
     sigma_d = sigma_n * 1.5 / math.sqrt(n_win) * math.sqrt(6.0) / 4.0
+    cut = max(min_snr * sigma_d, min_amplitude or 0.0)
     k0 = int(np.argmax(D))
     keep = [k0]
     for k in range(k0 + 1, len(D)):
-        if D[k] < min_snr * sigma_d or (max_half_cycles and len(keep) >= max_half_cycles):
+        if D[k] < cut or (max_half_cycles and len(keep) >= max_half_cycles):
             break
         keep.append(k)
     if len(keep) < 3:
@@ -382,7 +386,8 @@ class DampingEstimate:
 
 
 def damping_ratio(t, y, *, f_hint: float | None = None, noise: float | None = None,
-                  baseline: str = "exp", min_snr: float = 10.0) -> DampingEstimate:
+                  baseline: str = "exp", min_snr: float = 10.0,
+                  min_amplitude: float | None = None) -> DampingEstimate:
     """Damping ratio of a free decay by two independent methods.
 
     Method: `log_decrement` (extremum amplitudes) and `fit_damped_sinusoid`
@@ -396,7 +401,8 @@ def damping_ratio(t, y, *, f_hint: float | None = None, noise: float | None = No
     fs = 1.0 / float(np.median(np.diff(t)))
     if f_hint is None:
         f_hint = dominant_frequency(y, fs).frequency_hz
-    ld = log_decrement(t, y, f_hint=f_hint, noise=noise, min_snr=min_snr)
+    ld = log_decrement(t, y, f_hint=f_hint, noise=noise, min_snr=min_snr,
+                       min_amplitude=min_amplitude)
     fit = fit_damped_sinusoid(t, y, f0=ld.frequency_hz, zeta0=max(ld.zeta, 1e-3),
                               baseline=baseline)
     return DampingEstimate(
@@ -914,3 +920,46 @@ def wave_speed_from_arrivals(x, t_arrival) -> WaveSpeed:
         direction = 1 if sl > 0 else -1
         se = float(math.sqrt(max(cv[0, 0], 0.0)) / sl ** 2)
     return WaveSpeed(float(1.0 / s), direction, se, x, ta, "front arrival times")
+
+
+# --------------------------------------------------------------------------
+# Onsets and delays
+# --------------------------------------------------------------------------
+
+def hinge_onset(t, y) -> tuple[float, float]:
+    """Time at which a steady signal starts to ramp, and the ramp rate.
+
+    Method: least-squares fit of y = b for t < t0, b + r (t - t0) after,
+    over the samples given (a quiet stretch followed by the start of a
+    move); for each trial t0 the level b and rate r are linear, and t0 is
+    found by a scan over the sample times refined by a bounded scalar
+    minimisation.  Unlike a threshold crossing, the result does not depend
+    on how fast the ramp is, so two signals moving at different rates can
+    be compared.  NaN samples are ignored.
+    """
+    t, y = _as_float(t), _as_float(y)
+    ok = np.isfinite(t) & np.isfinite(y)
+    t, y = t[ok], y[ok]
+    if len(t) < 6:
+        raise ValueError("hinge_onset needs at least 6 samples")
+
+    def sse(t0: float) -> float:
+        A = np.column_stack([np.ones_like(t), np.maximum(t - t0, 0.0)])
+        coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+        r = A @ coef - y
+        return float(r @ r)
+
+    cands = t[2:-2]
+    costs = np.array([sse(c) for c in cands])
+    k = int(np.argmin(costs))
+    lo = cands[max(k - 1, 0)]
+    hi = cands[min(k + 1, len(cands) - 1)]
+    if hi > lo:
+        sol = optimize.minimize_scalar(sse, bounds=(lo, hi), method="bounded",
+                                       options={"xatol": 1e-5})
+        t0 = float(sol.x) if sol.fun <= costs[k] else float(cands[k])
+    else:
+        t0 = float(cands[k])
+    A = np.column_stack([np.ones_like(t), np.maximum(t - t0, 0.0)])
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    return t0, float(coef[1])

@@ -140,7 +140,8 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
             raise DivergenceError(
                 f"simulation diverged at t={t_bad:.4f} s: {what} first at {_describe_node(model, n, bad)}")
         if code == K.REEL_LIMIT:
-            raise DivergenceError(f"at t={t_bad:.4f} s the reel has taken in all but the last element")
+            raise DivergenceError(f"at t={t_bad:.4f} s the reel has taken in all the hose but "
+                                  f"{int(P[K.P_NE_MIN])} elements, the fewest the model keeps")
         # remesh at the reel exit, then restart on the same record grid
         pos, vel_half, acc, rest, dflux = _remesh(code, model, nh, pos, vel_half, acc, rest, mass,
                                                   reel[0])
@@ -172,37 +173,35 @@ def _reel_set_point(model: Model, state0: State, rest: np.ndarray) -> float:
 def _remesh(code, model, nh, pos, vel_half, acc, rest, mass, L_out):
     """Insert (reel paying out) or remove (taking in) the node next to the reel exit.
 
-    Inserting splits the exit element at one nominal length from node 1; linear
-    interpolation of the velocity there conserves momentum exactly (the new
-    node's mass comes from nodes 0 and 1 in the interpolation's proportions).
-    Removing node 1 hands the share of its mass that stays outside to node 2
-    with its momentum; the share that goes into the pod leaves with its
-    momentum. Returns the momentum that crossed the reel exit."""
+    Inserting splits the exit element one nominal length from node 1; linear
+    interpolation of the velocity there conserves momentum (the new node's mass
+    comes from nodes 0 and 1 in the interpolation's proportions). Removing node 1
+    hands the share of its mass that stays outside to node 2 with its momentum;
+    the share that goes into the pod leaves with its own. Returns the change of
+    the free nodes' momentum, which is what crossed the reel exit (the masses
+    before are those of the last step, so the exit element's latest growth is
+    booked here too)."""
     l_nom = model.element_length
-    mu = model.hose.mass_per_length
-    v0 = vel_half[0].copy()
+    r0 = L_out - float(np.sum(rest[1:]))
+    p_before = mass[1:] @ vel_half[1:]
     if code == K.REMESH_GROW:
-        r0 = L_out - float(np.sum(rest[1:]))
         f = l_nom / r0
         x_new = pos[1] + f * (pos[0] - pos[1])
-        v_new = vel_half[1] + f * (v0 - vel_half[1])
+        v_new = vel_half[1] + f * (vel_half[0] - vel_half[1])
         a_new = acc[1] + f * (acc[0] - acc[1])
         pos = np.insert(pos, 1, x_new, axis=0)
         vel_half = np.insert(vel_half, 1, v_new, axis=0)
         acc = np.insert(acc, 1, a_new, axis=0)
         rest = np.concatenate([[r0 - l_nom, l_nom], rest[1:]])
-        dflux = 0.5 * mu * l_nom * v0
+        mass_new = model.build_arrays(nh + 1, rest)[1]
     else:
-        r0, r1 = L_out - float(np.sum(rest[1:])), rest[1]
-        n_new, mass_new, *_ = model.build_arrays(nh - 1, np.concatenate([[r0 + r1], rest[2:]]))
+        rest = np.concatenate([[r0 + rest[1]], rest[2:]])
+        mass_new = model.build_arrays(nh - 1, rest)[1]
         m2_old = mass[2]
-        m2_new = mass_new[1]
-        v1 = vel_half[1].copy()
-        vel_half[2] = (m2_old * vel_half[2] + (m2_new - m2_old) * v1) / m2_new
-        dflux = -(mass[1] - (m2_new - m2_old)) * v1
+        vel_half[2] = (m2_old * vel_half[2] + (mass_new[1] - m2_old) * vel_half[1]) / mass_new[1]
         pos = np.delete(pos, 1, axis=0)
         vel_half = np.delete(vel_half, 1, axis=0)
         acc = np.delete(acc, 1, axis=0)
-        rest = np.concatenate([[r0 + r1], rest[2:]])
+    dflux = mass_new[1:] @ vel_half[1:] - p_before
     return (np.ascontiguousarray(pos), np.ascontiguousarray(vel_half), np.ascontiguousarray(acc),
             rest, dflux)

@@ -413,10 +413,11 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
         if r0 > REMESH_MAX * P[P_L_NOM]:
             return REMESH_GROW, k, rec, -1
         if r0 < REMESH_MIN * P[P_L_NOM]:
+            # below the band no merge is left when the hose is down to its fewest
+            # elements; a shorter exit element would outrun the stable step
             if nh - 1 >= P[P_NE_MIN]:
                 return REMESH_SHRINK, k, rec, -1
-            if r0 < 0.05 * P[P_L_NOM]:
-                return REEL_LIMIT, k, rec, -1
+            return REEL_LIMIT, k, rec, -1
         m1_old = mass[1]
         rest[0] = r0
         ka[0] = P[P_EA0] / r0
