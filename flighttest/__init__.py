@@ -1,0 +1,14 @@
+"""Flight and bench test records: contract, reader/writer, measurements.
+
+The package never imports the solver: records are measured on their own
+(`analyze_record`) and compared with simulations through the same reader
+(`write_record` stores a simulation run in the contract).
+"""
+from .analyze import analyze_record
+from .mcap_io import FlightRecord, LogError, make_record, read_record, read_record_bytes, write_record
+from .schema import REQUIRED_TOPICS, TEST_KINDS, TOPICS, TestInfo
+
+__all__ = [
+    "FlightRecord", "LogError", "TestInfo", "TOPICS", "TEST_KINDS", "REQUIRED_TOPICS",
+    "read_record", "read_record_bytes", "write_record", "make_record", "analyze_record",
+]

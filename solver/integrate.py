@@ -110,7 +110,7 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
     F = np.zeros((n, 3))
     ten = np.zeros(n)
     K.compute_forces(t_start, P, n, nh, pos, vel, mass, rest_all, ka, ca, kb, cb,
-                     model.wind.kernel, model.wind.params, F, ten, work)
+                     model.wind.params, F, ten, work)
     acc = F / mass[:, None]
     acc[0] = 0.0
     vel_half = vel - 0.5 * dt * acc
@@ -119,13 +119,14 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
     reel[1] = state0.reel_speed
     end_reaction = np.zeros(3)
 
+    wind_par = model.wind.params
     k_done = 0
     rec = 0
     while k_done < nsteps_total:
         t0 = t_start + k_done * dt
         code, steps, rec_new, bad = K.run_steps(
             t0, dt, nsteps_total - k_done, rec_every, k_done % rec_every, P, n, nh, pos, vel_half, acc, mass, rest_all,
-            ka, ca, kb, cb, model.wind.kernel, model.wind.params, *tabs, reel,
+            ka, ca, kb, cb, wind_par, *tabs, reel,
             out_t, out_pos, out_vel, out_tension, out_reel, out_end, out_energy, out_mom, rec, work,
             end_reaction)
         out_n[rec:rec_new] = n

@@ -16,6 +16,8 @@ import math
 import numpy as np
 from numba import njit
 
+from solver.wind import wind_eval
+
 # ---- indices into the scalar parameter vector P -------------------------------------
 P_RHO = 0          # air density, kg/m^3
 P_NU = 1           # kinematic viscosity, m^2/s
@@ -115,6 +117,25 @@ def _cdn(P, re):
     return 0.6
 
 
+@njit(cache=True, inline="always")
+def _angle(s, c):
+    """Angle between two unit vectors from |a x b| = s and a.b = c. Joints bend a
+    little almost everywhere: below s = 0.1 the arcsine series (error < 1e-8 rad)
+    stands in for atan2, which costs more than the rest of the joint."""
+    if c > 0.0 and s < 0.1:
+        s2 = s * s
+        return s * (1.0 + s2 * (1.0 / 6.0 + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0))))
+    return math.atan2(s, c)
+
+
+@njit(cache=True, inline="always")
+def _theta_over_sin(s, c, th):
+    """theta / sin(theta), continuous through theta = 0."""
+    if s > 1e-9:
+        return th / s
+    return 1.0 + s * s / 6.0
+
+
 @njit(cache=True)
 def drum_radius_inertia(P, L_out):
     """Drum radius and inertia with (P_HOSE_TOTAL - L_out) of hose wound on it.
@@ -132,8 +153,12 @@ def drum_radius_inertia(P, L_out):
     return R, I
 
 
-@njit(cache=True)
-def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_fn, wind_par,
+# Fast-math without the no-NaN/no-Inf assumptions, so divergence checks still see them.
+FAST = {"contract", "arcp", "nsz", "afn", "reassoc"}
+
+
+@njit(cache=True, fastmath=FAST)
+def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
                    F, tension, work):
     """Forces on every node (gravity, axial, bending, hinge, hose and drogue aero).
 
@@ -194,13 +219,13 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_fn, w
         nz = ax * by - ay * bx
         s = math.sqrt(nx * nx + ny * ny + nz * nz)
         c = ax * bx + ay * by + az * bz
-        th = math.atan2(s, c)
+        th = _angle(s, c)
         wx = omeg[b, 0] - omeg[a, 0]
         wy = omeg[b, 1] - omeg[a, 1]
         wz = omeg[b, 2] - omeg[a, 2]
         if j < nh or not has_drogue:
             # moment vector on element a: k theta n_hat + c (w_b - w_a)
-            fac = th / s if s > 1e-9 else 1.0 + s * s / 6.0
+            fac = _theta_over_sin(s, c, th)
             kk = kb[j] * fac
             mx = kk * nx + cb[j] * wx
             my = kk * ny + cb[j] * wy
@@ -234,8 +259,7 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_fn, w
         nz = ax * by - ay * bx
         s = math.sqrt(nx * nx + ny * ny + nz * nz)
         c = ax * bx + ay * by + az * bz
-        th = math.atan2(s, c)
-        fac = th / s if s > 1e-9 else 1.0 + s * s / 6.0
+        fac = _theta_over_sin(s, c, _angle(s, c))
         kk = P[P_CLAMP_K] * fac
         mx = kk * nx + P[P_CLAMP_C] * omeg[0, 0]
         my = kk * ny + P[P_CLAMP_C] * omeg[0, 1]
@@ -245,7 +269,7 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_fn, w
     # aerodynamics of hose elements (Eq. 3-9) on the relative wind at each element centre
     nhe = nh
     wvel = work[4]
-    wind_fn(t, mids, nhe, wind_par, wvel)
+    wind_eval(t, mids, nhe, wind_par, wvel)
     rho = P[P_RHO]
     D = P[P_DIAM]
     scale = P[P_HOSE_DRAG]
@@ -284,7 +308,7 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_fn, w
         cpp[0, 0] = pos[h, 0] + s * (pos[d, 0] - pos[h, 0])
         cpp[0, 1] = pos[h, 1] + s * (pos[d, 1] - pos[h, 1])
         cpp[0, 2] = pos[h, 2] + s * (pos[d, 2] - pos[h, 2])
-        wind_fn(t, cpp, 1, wind_par, wvel)
+        wind_eval(t, cpp, 1, wind_par, wvel)
         rx = wvel[0, 0] - (vel[h, 0] + s * (vel[d, 0] - vel[h, 0]))
         ry = wvel[0, 1] - (vel[h, 1] + s * (vel[d, 1] - vel[h, 1]))
         rz = wvel[0, 2] - (vel[h, 2] + s * (vel[d, 2] - vel[h, 2]))
@@ -359,9 +383,9 @@ def potential_energy(P, n, nh, pos, rest, ka, kb):
     return E
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc_prev, mass, rest, ka, ca,
-              kb, cb, wind_fn, wind_par, tow_t0, tow_dt, tow_tab, end_t0, end_dt, end_tab,
+              kb, cb, wind_par, tow_t0, tow_dt, tow_tab, end_t0, end_dt, end_tab,
               reel_t0, reel_dt, reel_tab, reel, out_t, out_pos, out_vel, out_tension,
               out_reel, out_end_force, out_energy, out_mom, rec_start, extra_work, end_reaction):
     """Advance the leapfrog (velocity at half steps) up to `nsteps` steps.
@@ -394,7 +418,11 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
     for k in range(nsteps):
         t = t0 + k * dt
         # prescribed tow point (node 0): position and velocity at t and t+dt
-        _interp_table(tow_t0, tow_dt, tow_tab, t, tow_now)
+        if k == 0:
+            _interp_table(tow_t0, tow_dt, tow_tab, t, tow_now)
+        else:
+            for c in range(6):
+                tow_now[c] = tow_next[c]
         _interp_table(tow_t0, tow_dt, tow_tab, t + dt, tow_next)
         for c in range(3):
             pos[0, c] = tow_now[c]
@@ -441,7 +469,7 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
         if end_active:
             for c in range(3):
                 vel[last, c] = end_now[3 + c]
-        compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_fn, wind_par,
+        compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
                        F, tension, work)
         # reel drum dynamics (Eq. 12) with the tension of the reel-exit element
         if P[P_REEL_MODE] == 2.0:
@@ -526,24 +554,23 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
             for c in range(6):
                 out_mom[rec, 5 + c] = reel[4 + c]
             rec += 1
-        # drift
-        for i in range(1, n):
-            if end_active and i == last:
-                continue
-            for c in range(3):
-                pos[i, c] += vel_half[i, c] * dt
+        # drift, with the divergence checks on the new state
         for c in range(3):
             pos[0, c] = tow_next[c]
-        if end_active:
-            for c in range(3):
-                pos[last, c] = end_next[c]
-        for i in range(n):
-            s2 = 0.0
-            for c in range(3):
-                x = pos[i, c]
-                if not math.isfinite(x) or not math.isfinite(vel_half[i, c]):
+        v0x, v0y, v0z = vel_half[0, 0], vel_half[0, 1], vel_half[0, 2]
+        vmax2 = P[P_VMAX] * P[P_VMAX]
+        for i in range(1, n):
+            if end_active and i == last:
+                for c in range(3):
+                    pos[i, c] = end_next[c]
+            else:
+                for c in range(3):
+                    pos[i, c] += vel_half[i, c] * dt
+            s2 = (vel_half[i, 0] - v0x) ** 2 + (vel_half[i, 1] - v0y) ** 2 + (vel_half[i, 2] - v0z) ** 2
+            if not (s2 <= vmax2):    # also true for NaN
+                if not math.isfinite(s2):
                     return NONFINITE, k + 1, rec, i
-                s2 += (vel_half[i, c] - vel_half[0, c]) ** 2
-            if s2 > P[P_VMAX] * P[P_VMAX]:
                 return OVERSPEED, k + 1, rec, i
+            if not (math.isfinite(pos[i, 0]) and math.isfinite(pos[i, 1]) and math.isfinite(pos[i, 2])):
+                return NONFINITE, k + 1, rec, i
     return OK, nsteps, rec, -1

@@ -215,8 +215,7 @@ class Model:
         P[K.P_HOSE_TOTAL] = h.stowed_length
         P[K.P_TORQUE_LAW] = 0.0 if r.torque_law == "constant_torque" else 1.0
         P[K.P_TORQUE] = r.torque if r.torque_law == "constant_torque" else reel_tension
-        u_ref = float(np.max(np.abs(self.wind.params[:3]))) if len(self.wind.params) >= 3 else 0.0
-        P[K.P_VMAX] = 5.0 * u_ref + 100.0
+        P[K.P_VMAX] = 5.0 * self.wind.mean_speed + 100.0
         P[K.P_NE_MIN] = 2
         P[K.P_HOSE_REST_SUM] = float(np.sum(rest[1:n_hose]))
         return P

@@ -29,7 +29,7 @@ def _forces(model, P, t, arrays, pos, work):
     F = np.zeros((n, 3))
     tension = np.zeros(n)
     K.compute_forces(t, P, n, model.n_elements, pos, vel, mass, rest, ka, ca, kb, cb,
-                     model.wind.kernel, model.wind.params, F, tension, work)
+                     model.wind.params, F, tension, work)
     return F, tension
 
 

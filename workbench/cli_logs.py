@@ -1,7 +1,145 @@
 """`workbench logs ...` verbs (owned by the flight-log ingest work)."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
 import click
+import numpy as np
+
+from flighttest.mcap_io import FlightRecord, LogError, read_record
+
+
+def _read(path: str, salvage: bool) -> FlightRecord:
+    try:
+        return read_record(path, salvage=salvage)
+    except LogError as err:
+        raise click.ClickException(str(err)) from None
+
+
+def _gaps(t: np.ndarray) -> tuple[int, float]:
+    """Intervals longer than 1.5 nominal periods, and the longest interval (s)."""
+    if len(t) < 3:
+        return 0, float("nan")
+    dt = np.diff(t)
+    return int(np.sum(dt > 1.5 * np.median(dt))), float(dt.max())
+
+
+def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
+    """(start, stop) index pairs of runs of True."""
+    padded = np.concatenate([[False], flags, [False]]).astype(int)
+    edges = np.flatnonzero(np.diff(padded))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def _topic_line(topic: str, df) -> str:
+    if topic == "/video/hose":
+        frames = np.asarray(df.attrs.get("frame_t_s", np.unique(df["t_s"])), dtype=float)
+        counts = df.groupby("t_s").size()
+        t = frames
+        n = len(frames)
+        extra = (f"points/frame {int(counts.min()) if len(counts) else 0}-"
+                 f"{int(counts.max()) if len(counts) else 0}")
+    else:
+        t = df.index.to_numpy(float)
+        n = len(df)
+        extra = ""
+    if n == 0:
+        return f"  {topic:<20} {0:>7} msgs  (empty)"
+    dur = float(t[-1] - t[0]) if n > 1 else 0.0
+    rate = (n - 1) / dur if dur > 0 else float("nan")
+    n_gaps, longest = _gaps(t)
+    parts = [f"  {topic:<20} {n:>7} msgs", f"{rate:8.2f} Hz" if math.isfinite(rate) else
+             f"{'-':>8}   ", f"{dur:8.3f} s", f"t {t[0]:.3f}-{t[-1]:.3f} s"]
+    if topic != "/probe/events":
+        parts.append(f"gaps {n_gaps}" + (f" (longest {longest:.3f} s)" if n_gaps else ""))
+    if "valid" in df:
+        bad = ~df["valid"].to_numpy(bool)
+        runs = _runs(bad)
+        if runs:
+            tt = df.index.to_numpy(float)
+            dt = float(np.median(np.diff(tt))) if len(tt) > 1 else 0.0
+            # A lost track lasts as many sample periods as it has invalid samples.
+            longest_drop = max(b - a for a, b in runs) * dt
+            parts.append(f"dropouts {int(bad.sum())} ({100 * bad.mean():.1f} %) in {len(runs)} "
+                         f"runs, longest {longest_drop:.3f} s")
+        else:
+            parts.append("dropouts 0")
+    if topic == "/probe/events":
+        parts.append(", ".join(f"{e} at {t_:.3f} s" for t_, e in zip(df.index, df["event"])))
+    if extra:
+        parts.append(extra)
+    return "  ".join(parts)
+
+
+def inspect_text(path: str, record: FlightRecord) -> str:
+    info = record.info
+    lines = [f"{Path(path).name}: test {info.test_id}  kind {info.test_kind}  hose {info.hose}"
+             f"  summary {'yes' if record.had_summary else 'no (data section scanned)'}"]
+    lines.append("  metadata:")
+    for key, value in info.raw.items():
+        lines.append(f"    {key} = {value}")
+    lines.append("  topics:")
+    for topic in sorted(record.topics):
+        lines.append("  " + _topic_line(topic, record.topics[topic]))
+    for w in record.warnings:
+        lines.append(f"  note: {w}")
+    return "\n".join(lines)
 
 
 @click.group()
 def logs() -> None:
     """Inspect and analyze flight and bench logs."""
+
+
+@logs.command("inspect")
+@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--salvage", is_flag=True,
+              help="Read the complete records of a file cut inside a record.")
+def inspect_cmd(files: tuple[str, ...], salvage: bool) -> None:
+    """Summarise test card, topics, rates, gaps and dropouts of each FILE."""
+    for i, path in enumerate(files):
+        record = _read(path, salvage)
+        if i:
+            click.echo("")
+        click.echo(inspect_text(path, record))
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+@logs.command("analyze")
+@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True,
+              help="One JSON object per file, keyed by the file name.")
+@click.option("--salvage", is_flag=True,
+              help="Read the complete records of a file cut inside a record.")
+def analyze_cmd(files: tuple[str, ...], as_json: bool, salvage: bool) -> None:
+    """Measure each FILE on its own (frequencies, damping, steady positions, ...)."""
+    from flighttest.analyze import analyze_record
+
+    for i, path in enumerate(files):
+        record = _read(path, salvage)
+        try:
+            result = analyze_record(record)
+        except LogError as err:
+            raise click.ClickException(str(err)) from None
+        if as_json:
+            click.echo(json.dumps({Path(path).name: result}, allow_nan=False))
+            continue
+        if i:
+            click.echo("")
+        click.echo(f"{Path(path).name}:")
+        for key, value in result.items():
+            if key == "hose_shape":
+                xs, zs = value["x_m"], value["z_m"]
+                click.echo(f"  hose_shape: {len(xs)} bins of {value['bin_m']} m, "
+                           f"x {xs[0]:.2f}..{xs[-1]:.2f} m, z {zs[0]:.3f}..{zs[-1]:.3f} m")
+            elif isinstance(value, list):
+                click.echo(f"  {key} = [{', '.join(_fmt(v) for v in value)}]")
+            else:
+                click.echo(f"  {key} = {_fmt(value)}")
