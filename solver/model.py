@@ -158,12 +158,12 @@ class Model:
             mass[n_hose + 1] = d.mass
             # The link is rigid in principle; a spring half as stiff as a hose element
             # (it stretches ~1 mm under the drogue's drag) keeps its numerical mode
-            # below the hose's own axial mode, and 10 % of critical damping on the
+            # below the hose's own axial mode, and 5 % of critical damping on the
             # reduced mass keeps it quiet.
             ka[n_hose] = 0.5 * self.nominal_constants()[0]
             m_h = mass[n_hose]
             m_red = m_h * d.mass / (m_h + d.mass)
-            ca[n_hose] = 0.2 * math.sqrt(ka[n_hose] * m_red)
+            ca[n_hose] = 0.1 * math.sqrt(ka[n_hose] * m_red)
         return n, mass, rest_all, ka, ca, kb, cb
 
     def params(self, n_hose: int, rest: np.ndarray, reel_tension: float = 0.0) -> np.ndarray:
@@ -223,13 +223,14 @@ class Model:
     def stable_step(self) -> float:
         """A leapfrog step inside the stability limit of the stiffest mode.
 
-        Leapfrog is stable for omega dt < 2; the step takes omega_max dt = 1.6.
-        omega_max is the largest of: the axial chain's highest mode (exact
-        eigenvalue of the mass-normalised tridiagonal stiffness of the straight
-        chain, drogue link included), the zig-zag bending mode 16 k_b/(m l^2),
-        the hinge stop and the clamp on their inertias. With a reel the exit
-        element may shrink to REMESH_MIN element lengths (stiffer, shorter levers).
-        Viscous terms add the explicit-damping limit c dt/m < 1 (kept at 0.6)."""
+        The limit of each mode comes from `leapfrog_limit` (the kernel's own
+        scheme on x'' = -omega^2 x - gamma x'); the step keeps 80 % of the
+        tightest. omega and gamma come from the axial chain's highest mode
+        (top eigenvalues of the mass-normalised tridiagonal stiffness and
+        damping of the straight chain, drogue link included), the zig-zag bending
+        mode 16 k_b/(m l^2), the hinge stop and the clamp, whichever is tightest.
+        With a reel the exit element may shrink to REMESH_MIN element lengths
+        (stiffer, shorter levers)."""
         l = self.element_length
         n_h = self.n_elements
         rest = np.full(n_h, l)
@@ -239,24 +240,53 @@ class Model:
             shrink = K.REMESH_MIN
         n, mass, rest_all, ka, ca, kb, cb = self.build_arrays(n_h, rest)
         m = mass[1:]
-        diag = (ka + np.append(ka[1:], 0.0)) / m
-        off = -ka[1:] / np.sqrt(m[:-1] * m[1:])
-        w2 = [float(eigvalsh_tridiagonal(diag, off, select="i",
-                                         select_range=(len(diag) - 1, len(diag) - 1))[0])]
-        csum = ca + np.append(ca[1:], 0.0)
-        c_rate = float(np.max(2 * csum / m))
+
+        def top_eig(k):
+            diag = (k + np.append(k[1:], 0.0)) / m
+            off = -k[1:] / np.sqrt(m[:-1] * m[1:])
+            return float(eigvalsh_tridiagonal(diag, off, select="i",
+                                              select_range=(len(diag) - 1, len(diag) - 1))[0])
+
+        modes = [(math.sqrt(top_eig(ka)), top_eig(ca))]      # (omega, damping rate 2 zeta omega)
         m_node = self.hose.mass_per_length * l
         kb_max = float(np.max(kb)) if n_h > 1 else 0.0
-        w2.append(16 * kb_max / (m_node * (shrink * l) ** 2) / shrink)
-        c_rate = max(c_rate, 16 * float(np.max(cb)) / (m_node * (shrink * l) ** 2) / shrink)
+        cb_max = float(np.max(cb)) if n_h > 1 else 0.0
+        lever = m_node * (shrink * l) ** 2 * shrink
+        modes.append((math.sqrt(16 * kb_max / lever), 16 * cb_max / lever))
         if self.has_drogue:
             d = self.drogue
-            w2.append(d.hinge_stop_stiffness * (1 / (d.mass * d.link_length ** 2)
-                                                + 1 / (mass[n_h] * l * l)))
-            c_rate = max(c_rate, d.hinge_damping / (mass[n_h] * l * l))
+            inv_i = 1 / (d.mass * d.link_length ** 2) + 1 / (mass[n_h] * l * l)
+            modes.append((math.sqrt(d.hinge_stop_stiffness * inv_i), d.hinge_damping * inv_i))
         if self.clamp is not None:
-            w2.append(2 * kb_max * self.clamp.stiffness_factor / (0.5 * m_node * (0.5 * l) ** 2))
-        dt = 1.6 / math.sqrt(max(w2))
-        if c_rate > 0:
-            dt = min(dt, 0.6 / c_rate)
-        return dt
+            ik = 1 / (0.5 * m_node * (0.5 * l) ** 2)
+            modes.append((math.sqrt(2 * kb_max * self.clamp.stiffness_factor * ik),
+                          2 * cb_max * self.clamp.stiffness_factor * ik))
+        return 0.8 * min(leapfrog_limit(omega, rate) for omega, rate in modes if omega > 0)
+
+
+def _amplification(omega: float, gamma: float, dt: float) -> float:
+    """Spectral radius of one kernel step on x'' = -omega^2 x - gamma x'.
+
+    The kernel's state is (x, v at the half step, previous acceleration); the
+    damping sees v_half + a_prev dt/2 (see `solver.kernel.run_steps`)."""
+    w2, g, h = omega * omega, gamma, dt
+    # a = -w2 x - g (v + h/2 a_prev);  v' = v + h a;  x' = x + h v';  a_prev' = a
+    A = np.array([[-w2, -g, -g * h / 2]])
+    vn = np.array([[0.0, 1.0, 0.0]]) + h * A
+    xn = np.array([[1.0, 0.0, 0.0]]) + h * vn
+    M = np.vstack([xn, vn, A])
+    return float(np.max(np.abs(np.linalg.eigvals(M))))
+
+
+def leapfrog_limit(omega: float, gamma: float) -> float:
+    """Largest step (s) at which the kernel's scheme is stable for a mode of
+    circular frequency omega (rad/s) and damping rate gamma = 2 zeta omega (1/s),
+    found by bisection on the amplification's spectral radius."""
+    lo, hi = 0.0, 2.0 / omega
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if _amplification(omega, gamma, mid) <= 1.0 + 1e-12:
+            lo = mid
+        else:
+            hi = mid
+    return lo
