@@ -3,8 +3,7 @@
 The unknowns are the free nodes' positions; the residual is the net force on
 each with every velocity zero (aerodynamics on the steady wind). The first guess
 comes from marching the string equations (no bending) up from the free end,
-which is exact for a string, so Newton only has to add bending and the hinge:
-it converges in a few iterations. The Jacobian is built by finite differences in
+which is exact for a string, so Newton mostly has to add bending and the hinge. The Jacobian is built by finite differences in
 groups of nodes five apart (a node's force depends on its neighbours up to two
 away), 15 force evaluations per Jacobian.
 """
@@ -118,17 +117,23 @@ def string_guess(model: Model, t: float, rest: np.ndarray, P: np.ndarray, fallba
     return hose
 
 
-def solve_static(model: Model, t: float = 0.0, tol: float = 1e-7, max_iter: int = 50,
+def solve_static(model: Model, t: float = 0.0, tol: float = 1e-7, max_iter: int = 200,
                  guess: np.ndarray | None = None) -> State:
     """Steady equilibrium at time t with the reel locked at the hose length.
 
+    Newton's method globalised by pseudo-transient continuation (Kelley & Keyes
+    1998): each step solves (M/dtau - J) dx = F, an implicit step of the
+    overdamped motion M x' = F, with dtau grown by switched evolution
+    relaxation (dtau *= |F_old|/|F_new|) so the iteration becomes plain Newton
+    near the answer. From the string guess the drogue-less hose's free end (zero
+    tension, bending on) is outside Newton's basin; this brings it in.
     Converged when the largest nodal force residual is below `tol` times the
     largest load on the hose (tension at the tow point, or its weight)."""
     nh = model.n_elements
     l = model.element_length
     rest = np.full(nh, l)
     arrays = model.build_arrays(nh, rest)
-    n = arrays[0]
+    n, mass = arrays[0], arrays[1]
     P = model.params(nh, rest)
     work = np.zeros((6, n, 3))
     fallback = model.clamp.direction if model.clamp is not None else (1.0, 0.0, 0.0)
@@ -142,12 +147,18 @@ def solve_static(model: Model, t: float = 0.0, tol: float = 1e-7, max_iter: int 
     f_ref = max(weight, float(np.max(np.abs(tension))), 1e-6)
     nfree = n - 1
     scale = l * 1e-6
+    mdiag = np.repeat(mass[1:], 3)
+    # start where the pseudo-time inertia matches the transverse (drag and bending)
+    # stiffness, far below the axial one, so the first steps move the hose's shape
+    k_soft = max(f_ref / l, 1e-6)
+    dtau = 10.0 * float(np.max(mdiag)) / k_soft
 
     def resid(p):
         Fp, _ = _forces(model, P, t, arrays, p, work)
         return Fp[1:].ravel()
 
     r = F[1:].ravel()
+    rnorm = float(np.linalg.norm(r))
     for it in range(max_iter):
         err = float(np.max(np.abs(r)))
         if err < tol * f_ref:
@@ -164,22 +175,25 @@ def solve_static(model: Model, t: float = 0.0, tol: float = 1e-7, max_iter: int 
                     lo = max(1, i - 2)
                     hi = min(n - 1, i + 2)
                     J[3 * (lo - 1):3 * hi, col] = dr[3 * (lo - 1):3 * hi]
-        try:
-            dx = np.linalg.solve(J, -r)
-        except np.linalg.LinAlgError as exc:
-            raise StaticSolveError(f"static solve: singular Jacobian at iteration {it}") from exc
-        # trust region: no node moves more than half an element per iteration
-        step = dx.reshape(-1, 3)
-        big = float(np.max(np.linalg.norm(step, axis=1)))
-        alpha = min(1.0, 0.5 * l / big) if big > 0 else 1.0
-        for _ in range(20):
+        for _ in range(30):
+            A = np.diag(mdiag / dtau) - J
+            try:
+                dx = np.linalg.solve(A, r)
+            except np.linalg.LinAlgError:
+                dtau *= 0.25
+                continue
             trial = pos.copy()
-            trial[1:] += alpha * step
+            trial[1:] += dx.reshape(-1, 3)
             rt = resid(trial)
-            if np.all(np.isfinite(rt)) and np.linalg.norm(rt) < np.linalg.norm(r) * (1 - 1e-4 * alpha):
+            rt_norm = float(np.linalg.norm(rt)) if np.all(np.isfinite(rt)) else np.inf
+            if rt_norm < 10.0 * rnorm:
                 break
-            alpha *= 0.5
-        pos, r = trial, rt
+            dtau *= 0.25
+        else:
+            raise StaticSolveError(f"static solve stalled at iteration {it}: residual "
+                                   f"{err:.3g} N (tolerance {tol * f_ref:.3g} N)")
+        dtau *= min(10.0, max(0.1, rnorm / max(rt_norm, 1e-300)))
+        pos, r, rnorm = trial, rt, rt_norm
     raise StaticSolveError(
         f"static solve did not converge in {max_iter} iterations: largest residual "
         f"{float(np.max(np.abs(r))):.3g} N (tolerance {tol * f_ref:.3g} N)")

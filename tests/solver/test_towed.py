@@ -111,3 +111,11 @@ def test_pure_string_is_the_hard_case():
     def zigzag(res):
         return np.nanmax(np.nanmean(np.nansum(np.diff(res.hose_xyz, n=2, axis=1) ** 2, axis=2), axis=1))
     assert zigzag(string) > 3 * zigzag(beam)
+
+
+def test_divergence_names_time_and_node():
+    # A step far past the stability limit blows up; the error says when and where.
+    m = towed_model(EI=50.0, ca0=0.004, bending_damping=2.0, axial_damping=300.0)
+    s = solve_static(m)
+    with pytest.raises(DivergenceError, match=r"diverged at t=\d+\.\d+ s: .* (node \d+|the drogue)"):
+        simulate(m, 1.0, s, dt=20 * m.stable_step(), record_dt=0.05)

@@ -1,0 +1,247 @@
+"""Cases: TOML files in `cases/` that say what to simulate (data, not code).
+
+A case names the hardware (ids in `hardware.toml`), the flight or bench
+condition, the model options and the prescribed motions. Every key is checked
+here; a wrong one is refused with one line naming the file, table, key and
+what is wrong. `build_model` turns a checked case into a `solver.Model`.
+
+Layout (every table but [hardware] and [condition] is optional):
+
+    id = "..."                      title = "..."
+    kind = "trail"                  # ringdown_bending | ringdown_axial | pitch_doublet | trail | engagement
+    [hardware]   hose, drogue, reel, tanker
+    [condition]  altitude_ft, airspeed_kcas, hose_fuel ("full" | "empty"), hose_length_ft
+    [model]      n_elements, drogue_lift_scale, drogue_drag_scale, reel ("locked" | "drum"),
+                 reel_torque_law, hinge_damping_N_m_s, hinge_friction_N_m
+    [model.structure]  EI_N_m2, EA_N, bending_damping_N_m2_s, axial_damping_N_s
+    [tow_motion] kind ("none" | "sine_doublet"), amplitude_m, period_s, start_s
+    [run]        duration_s, record_dt_s
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+import numpy as np
+
+from solver.atmosphere import isa, kcas_to_tas
+from solver.drogue import DrogueProperties
+from solver.hose import HoseProperties
+from solver.model import Model, Trajectory
+from solver.reel import ReelProperties
+from solver.wind import freestream
+from workbench.errors import InputError
+from workbench.hardware import Hardware, load_hardware
+
+KINDS = ("ringdown_bending", "ringdown_axial", "pitch_doublet", "trail", "engagement")
+FT = 0.3048
+
+
+@dataclass(frozen=True)
+class Field:
+    kind: type | tuple
+    default: Any = None
+    check: Optional[Callable[[Any], Optional[str]]] = None   # returns a complaint or None
+    required: bool = False
+
+
+def _positive(v):
+    return None if v > 0 else "must be positive"
+
+
+def _nonneg(v):
+    return None if v >= 0 else "must not be negative"
+
+
+def _one_of(*opts):
+    return lambda v: None if v in opts else f"must be one of {', '.join(map(repr, opts))}"
+
+
+def _int_range(lo, hi):
+    return lambda v: None if lo <= v <= hi else f"must lie in {lo}..{hi}"
+
+
+NUM = (int, float)
+SCHEMA = {
+    "": {
+        "id": Field(str, required=True),
+        "title": Field(str, ""),
+        "kind": Field(str, required=True, check=_one_of(*KINDS)),
+        "description": Field(str, ""),
+    },
+    "hardware": {
+        "hose": Field(str, required=True),
+        "drogue": Field(str),
+        "reel": Field(str),
+        "tanker": Field(str),
+    },
+    "condition": {
+        "altitude_ft": Field(NUM, 0.0, lambda v: None if -1000 <= v <= 60000 else "must lie in -1000..60000"),
+        "airspeed_kcas": Field(NUM, 0.0, _nonneg),
+        "hose_fuel": Field(str, "full", _one_of("full", "empty")),
+        "hose_length_ft": Field(NUM, None, _positive),
+    },
+    "model": {
+        "n_elements": Field(int, 40, _int_range(4, 200)),
+        "drogue_lift_scale": Field(NUM, 1.0, _nonneg),
+        "drogue_drag_scale": Field(NUM, 1.0, _positive),
+        "reel": Field(str, "locked", _one_of("locked", "drum")),
+        "reel_torque_law": Field(str, "constant_tension", _one_of("constant_tension", "constant_torque")),
+        "reel_torque_N_m": Field(NUM, None, _positive),
+        "hinge_damping_N_m_s": Field(NUM, 0.0, _nonneg),
+        "hinge_friction_N_m": Field(NUM, 0.0, _nonneg),
+    },
+    "model.structure": {
+        "EI_N_m2": Field(NUM, required=True, check=_positive),
+        "EA_N": Field(NUM, required=True, check=_positive),
+        "bending_damping_N_m2_s": Field(NUM, 0.0, _nonneg),
+        "axial_damping_N_s": Field(NUM, 0.0, _nonneg),
+        "source": Field(str, "nominal"),
+    },
+    "tow_motion": {
+        "kind": Field(str, "none", _one_of("none", "sine_doublet")),
+        "amplitude_m": Field(NUM, 0.0, _nonneg),
+        "period_s": Field(NUM, 2.0, _positive),
+        "start_s": Field(NUM, 1.0, _nonneg),
+    },
+    "run": {
+        "duration_s": Field(NUM, 10.0, _positive),
+        "record_dt_s": Field(NUM, 0.01, _positive),
+    },
+}
+
+
+@dataclass(frozen=True)
+class Case:
+    path: str
+    id: str
+    kind: str
+    title: str
+    tables: dict = field(repr=False)
+
+    def __getitem__(self, table: str) -> dict:
+        return self.tables[table]
+
+
+def _check_table(path: str, name: str, raw: dict) -> dict:
+    schema = SCHEMA[name]
+    where = f"[{name}] " if name else ""
+    out = {}
+    for key, value in raw.items():
+        if isinstance(value, dict) and f"{name}.{key}".strip(".") in SCHEMA:
+            continue
+        if key not in schema:
+            raise InputError(f"{path}: {where}unknown key '{key}' (known: {', '.join(schema)})")
+        f = schema[key]
+        ok = isinstance(value, f.kind) and not (isinstance(value, bool) and f.kind in (NUM, int))
+        if not ok:
+            want = "a number" if f.kind is NUM else ("an integer" if f.kind is int else "a string")
+            raise InputError(f"{path}: {where}{key} must be {want}, got {value!r}")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise InputError(f"{path}: {where}{key} must be finite, got {value!r}")
+        if f.check is not None:
+            msg = f.check(value)
+            if msg:
+                raise InputError(f"{path}: {where}{key} {msg}, got {value!r}")
+        out[key] = value
+    for key, f in schema.items():
+        if key not in out:
+            if f.required:
+                raise InputError(f"{path}: {where}missing required key '{key}'")
+            out[key] = f.default
+    return out
+
+
+def load_case(path: str | Path) -> Case:
+    p = Path(path)
+    try:
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{p}: case file not found") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{p}: not valid TOML ({exc})") from None
+    tables = {}
+    tables[""] = _check_table(str(p), "", {k: v for k, v in raw.items() if not isinstance(v, dict)})
+    for key, value in raw.items():
+        if isinstance(value, dict):
+            if key not in SCHEMA:
+                known = ", ".join(k for k in SCHEMA if k and "." not in k)
+                raise InputError(f"{p}: unknown table [{key}] (known: {known})")
+            tables[key] = _check_table(str(p), key, value)
+            for sub, subval in value.items():
+                if isinstance(subval, dict):
+                    name = f"{key}.{sub}"
+                    if name not in SCHEMA:
+                        raise InputError(f"{p}: unknown table [{name}]")
+                    tables[name] = _check_table(str(p), name, subval)
+    for name in SCHEMA:
+        if name not in tables:
+            if any(f.required for f in SCHEMA[name].values()) and name != "model.structure":
+                raise InputError(f"{p}: missing table [{name}]")
+            if name != "model.structure":
+                tables[name] = _check_table(str(p), name, {})
+    if "model.structure" not in tables:
+        raise InputError(f"{p}: missing table [model.structure] (hose EI_N_m2, EA_N and damping)")
+    top = tables[""]
+    return Case(str(p), top["id"], top["kind"], top["title"], tables)
+
+
+def _sheet(case: Case, hw: Hardware, kind: str, ident: str):
+    try:
+        return hw.get(kind, ident)
+    except InputError as exc:
+        raise InputError(f"{case.path}: [hardware] {kind} '{ident}' is not in {exc}") from None
+
+
+def build_model(case: Case, hardware: Hardware | None = None) -> Model:
+    """The solver model a checked case describes."""
+    hw = hardware if hardware is not None else load_hardware()
+    h = case["hardware"]
+    cond = case["condition"]
+    mod = case["model"]
+    st = case["model.structure"]
+    hs = _sheet(case, hw, "hose", h["hose"])
+    length = cond["hose_length_ft"] * FT if cond["hose_length_ft"] else hs.length
+    hose = HoseProperties(
+        length=length, outer_diameter=hs.outer_diameter, inner_diameter=hs.inner_diameter,
+        dry_mass_per_length=hs.dry_mass_per_length, EI=float(st["EI_N_m2"]), EA=float(st["EA_N"]),
+        bending_damping=float(st["bending_damping_N_m2_s"]), axial_damping=float(st["axial_damping_N_s"]),
+        fuel_density=hw.fuel_density, fuel_full=cond["hose_fuel"] == "full",
+        total_length=hs.length if hs.length > length else None)
+    drogue = None
+    if h["drogue"]:
+        ds = _sheet(case, hw, "drogue", h["drogue"])
+        drogue = DrogueProperties(mass=ds.mass, diameter=ds.diameter, cd=ds.cd_wind_tunnel, cl=ds.cl_wind_tunnel,
+                                  cp_aft_of_hinge=ds.cp_aft_of_hinge, free_play_deg=ds.free_play_deg,
+                                  lift_scale=float(mod["drogue_lift_scale"]),
+                                  drag_scale=float(mod["drogue_drag_scale"]),
+                                  hinge_damping=float(mod["hinge_damping_N_m_s"]),
+                                  hinge_friction=float(mod["hinge_friction_N_m"]))
+    reel = ReelProperties()
+    if mod["reel"] == "drum":
+        if not h["reel"]:
+            raise InputError(f"{case.path}: [model] reel = 'drum' needs [hardware] reel")
+        rs = _sheet(case, hw, "reel", h["reel"])
+        reel = ReelProperties(mode="drum", drum_radius_empty=rs.drum_radius_empty, drum_width=rs.drum_width,
+                              drum_inertia_empty=rs.drum_inertia_empty, torque_law=mod["reel_torque_law"],
+                              torque=mod["reel_torque_N_m"])
+    alt_m = cond["altitude_ft"] * FT
+    atm = isa(alt_m, delta_temperature=0.0)
+    tas = kcas_to_tas(cond["airspeed_kcas"], cond["altitude_ft"]) if cond["airspeed_kcas"] > 0 else 0.0
+    tow = _tow_motion(case)
+    return Model(hose, int(mod["n_elements"]), atm.density, atm.kinematic_viscosity, wind=freestream(tas),
+                 drogue=drogue, reel=reel, tow=tow)
+
+
+def _tow_motion(case: Case) -> Trajectory:
+    tm = case["tow_motion"]
+    if tm["kind"] == "none":
+        return Trajectory.fixed()
+    dur = float(case["run"]["duration_s"])
+    t = np.linspace(0.0, max(dur, tm["start_s"] + tm["period_s"]), int(max(dur, 1.0) * 200) + 1)
+    phase = (t - tm["start_s"]) / tm["period_s"]
+    z = np.where((phase > 0) & (phase < 1), tm["amplitude_m"] * np.sin(2 * np.pi * phase), 0.0)
+    return Trajectory(t, np.column_stack([np.zeros_like(t), np.zeros_like(t), z]))
