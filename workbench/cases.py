@@ -10,7 +10,8 @@ Layout (every table but [hardware] and [condition] is optional):
     id = "..."                      title = "..."
     kind = "trail"                  # ringdown_bending | ringdown_axial | pitch_doublet | trail | engagement
     [hardware]   hose, drogue, reel, tanker
-    [condition]  altitude_ft, airspeed_kcas, hose_fuel ("full" | "empty"), hose_length_ft
+    [condition]  altitude_ft, airspeed_kcas, hose_fuel ("full" | "empty"), hose_length_ft,
+                 oat_F (outside air temperature; default the ISA standard day)
     [model]      n_elements, drogue_lift_scale, drogue_drag_scale, reel ("locked" | "drum"),
                  reel_torque_law, hinge_damping_N_m_s, hinge_friction_N_m
     [model.structure]  EI_N_m2, EA_N, bending_damping_N_m2_s, axial_damping_N_s
@@ -83,6 +84,7 @@ SCHEMA = {
         "airspeed_kcas": Field(NUM, 0.0, _nonneg),
         "hose_fuel": Field(str, "full", _one_of("full", "empty")),
         "hose_length_ft": Field(NUM, None, _positive),
+        "oat_F": Field(NUM, None, lambda v: None if -130 <= v <= 150 else "must lie in -130..150"),
     },
     "model": {
         "n_elements": Field(int, 40, _int_range(4, 200)),
@@ -229,8 +231,11 @@ def build_model(case: Case, hardware: Hardware | None = None) -> Model:
                               drum_inertia_empty=rs.drum_inertia_empty, torque_law=mod["reel_torque_law"],
                               torque=mod["reel_torque_N_m"])
     alt_m = cond["altitude_ft"] * FT
-    atm = isa(alt_m, delta_temperature=0.0)
-    tas = kcas_to_tas(cond["airspeed_kcas"], cond["altitude_ft"]) if cond["airspeed_kcas"] > 0 else 0.0
+    d_temp = 0.0
+    if cond["oat_F"] is not None:
+        d_temp = (cond["oat_F"] - 32.0) * 5.0 / 9.0 + 273.15 - isa(alt_m).temperature
+    atm = isa(alt_m, delta_temperature=d_temp)
+    tas = kcas_to_tas(cond["airspeed_kcas"], cond["altitude_ft"], d_temp) if cond["airspeed_kcas"] > 0 else 0.0
     tow = _tow_motion(case)
     return Model(hose, int(mod["n_elements"]), atm.density, atm.kinematic_viscosity, wind=freestream(tas),
                  drogue=drogue, reel=reel, tow=tow)

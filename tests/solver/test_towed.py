@@ -119,3 +119,25 @@ def test_divergence_names_time_and_node():
     s = solve_static(m)
     with pytest.raises(DivergenceError, match=r"diverged at t=\d+\.\d+ s: .* (node \d+|the drogue)"):
         simulate(m, 1.0, s, dt=20 * m.stable_step(), record_dt=0.05)
+
+
+def test_probe_holding_the_drogue_carries_its_load():
+    # Held where it trails freely, the probe feels nothing; pushed 1.5 m forward and held,
+    # the hose's pull drops and the probe carries the difference: the x-force on the probe
+    # then lies between zero and the drogue's drag (hose tension can only pull aft).
+    d = DrogueProperties(mass=27.0, diameter=0.68, cd=0.82, cl=0.0, cp_aft_of_hinge=0.4)
+    m = towed_model(EI=50.0, ca0=0.004, drogue=d, bending_damping=2.0, axial_damping=300.0)
+    s = solve_static(m)
+    p0 = s.pos[-1]
+    t = np.array([0.0, 3.0, 4.0, 12.0])
+    path = np.vstack([p0, p0, p0 - [1.5, 0, 0], p0 - [1.5, 0, 0]])
+    m.end = EndConstraint(Trajectory(t, path), t_on=0.5)
+    r = simulate(m, 12.0, s, record_dt=0.01)
+    drag = 0.5 * RHO * U ** 2 * d.drag_area
+    held = (r.t > 1.0) & (r.t < 3.0)
+    assert np.max(np.linalg.norm(r.probe_force[held], axis=1)) < 0.02 * drag
+    late = r.t > 10.0
+    fx = np.mean(r.probe_force[late, 0])
+    assert 0.05 * drag < fx < 1.05 * drag, (fx, drag)
+    free = r.t < 0.5
+    assert np.all(r.probe_force[free] == 0.0)
