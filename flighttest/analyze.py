@@ -249,6 +249,14 @@ def _move_window(t: np.ndarray, y: np.ndarray, t0: float, t_end: float,
     return (t >= t0 - pre_s) & (t <= t_hi)
 
 
+def _smooth(t: np.ndarray, y: np.ndarray, window_s: float = 0.3) -> np.ndarray:
+    """Running median over `window_s`: an extreme taken from it is an extreme
+    of the motion, not of one noisy sample; 0.3 s is short beside the
+    seconds-long pushes and take-ups it is used on."""
+    k = int(round(window_s * M.median_rate_hz(t))) | 1
+    return signal.medfilt(y, k) if k > 1 and len(y) > k else y
+
+
 def _engagement(record: FlightRecord) -> dict[str, Any]:
     ors, out = _drogue(record)
     tc, td = _events(record)
@@ -261,15 +269,13 @@ def _engagement(record: FlightRecord) -> dict[str, Any]:
     t_r, L = _series(reel, "length_m")
     base_L = float(np.median(L[(t_r >= tc - 2.0) & (t_r < tc)])) if np.any(t_r < tc) else L[0]
     during = (t_r >= tc) & (t_r <= t_stop)
-    # Median over ~0.1 s so a single telemetry spike cannot set the maximum.
-    k = max(int(round(0.1 * M.median_rate_hz(t_r))) | 1, 1)
-    L_s = signal.medfilt(L, k) if k > 1 else L
-    out["reel_takeup_max_m"] = _f(base_L - L_s[during].min()) if during.any() else None
+    out["reel_takeup_max_m"] = _f(base_L - _smooth(t_r, L)[during].min()) if during.any() else None
 
     t_x, x = _series(ors, "x_m", "valid")
     base_x = float(np.median(x[(t_x >= tc - 2.0) & (t_x < tc)]))
-    dx = (x[(t_x >= tc) & (t_x <= t_stop)])
-    out["drogue_pushback_max_m"] = _f(base_x - dx.min()) if len(dx) else None
+    in_contact = (t_x >= tc) & (t_x <= t_stop)
+    out["drogue_pushback_max_m"] = (_f(base_x - _smooth(t_x, x)[in_contact].min())
+                                    if in_contact.any() else None)
 
     # Reel lag: onset of the reel take-up minus onset of the drogue's forward
     # motion, each from a hinge fit (see metrics.hinge_onset).

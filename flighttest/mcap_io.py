@@ -21,7 +21,7 @@ import struct
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 import pandas as pd
@@ -42,6 +42,8 @@ _OP_NAMES = {
 # A chunk that claims to inflate beyond this is damage, not data; refusing it
 # keeps a flipped size field from exhausting memory.
 _MAX_CHUNK_BYTES = 1 << 30
+# Nanosecond times are held as int64 (pandas, numpy): 2**63 ns is in 2262.
+_MAX_TIME_NS = 1 << 63
 
 
 class LogError(ValueError):
@@ -54,6 +56,9 @@ class LogError(ValueError):
         self.problem = problem
         text = f"{self.path}: {where}: {problem}"
         super().__init__(" ".join(text.split()))
+
+    def __reduce__(self):
+        return (type(self), (self.path, self.where, self.problem))
 
 
 @dataclass
@@ -154,7 +159,9 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
     elif compression == "zstd":
         import zstandard
         try:
-            out = zstandard.ZstdDecompressor().decompress(data, max_output_size=max(size, 1))
+            # Streaming, so the output grows with the data actually present
+            # rather than being allocated from a size field that may be damaged.
+            out = zstandard.ZstdDecompressor().decompressobj().decompress(data)
         except zstandard.ZstdError as exc:
             raise _Damage(f"zstd data does not decompress ({exc})") from None
     elif compression == "lz4":
@@ -270,7 +277,8 @@ def _walk(buf: bytes, salvage: bool) -> _Raw:
                 raw.truncated = True
                 return raw
             raise _Damage(f"{name} record at byte {pos} claims {length} bytes, "
-                          f"only {n - pos - 9} remain: file truncated or damaged")
+                          f"only {n - pos - 9} remain: file truncated or damaged "
+                          f"(salvage reads the complete records before it)")
         if first and opcode != OP_HEADER:
             raise _Damage(f"first record is {name}, not Header")
         first = False
@@ -279,12 +287,12 @@ def _walk(buf: bytes, salvage: bool) -> _Raw:
             raise _Damage(f"invalid opcode 0x00 at byte {pos}")
         if opcode == OP_CHUNK:
             _walk_chunk(raw, c, pos)
-        elif opcode in (OP_SCHEMA, OP_CHANNEL, OP_MESSAGE) and not data_end_seen:
-            {OP_SCHEMA: _add_schema, OP_CHANNEL: _add_channel, OP_MESSAGE: _add_message}[opcode](raw, c)
         elif opcode in (OP_SCHEMA, OP_CHANNEL):
-            # Summary repeats of schemas/channels must agree with the data section.
+            # Repeats in the summary must agree with the data section's.
             (_add_schema if opcode == OP_SCHEMA else _add_channel)(raw, c)
-        elif opcode == OP_METADATA:
+        elif opcode == OP_MESSAGE and not data_end_seen:
+            _add_message(raw, c)  # an unchunked file
+        elif opcode == OP_METADATA and not data_end_seen:
             raw.metadata.append((c.string(), c.str_map()))
         elif opcode == OP_STATISTICS:
             count = c.u64()
@@ -336,16 +344,17 @@ _DECODER = json.JSONDecoder(parse_constant=_no_constants)
 
 
 def _decode_json(data: bytes) -> Any:
+    """Strict JSON: UTF-8, no NaN/Infinity literals.  Errors read "is not ..."."""
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
-        raise ValueError("message is not UTF-8 text") from None
+        raise ValueError("is not UTF-8 text") from None
     try:
         return _DECODER.decode(text)
     except RecursionError:
-        raise ValueError("message JSON nests too deeply") from None
+        raise ValueError("nests too deeply") from None
     except ValueError as exc:
-        raise ValueError(f"message is not valid JSON ({str(exc).splitlines()[0]})") from None
+        raise ValueError(f"is not valid JSON ({str(exc).splitlines()[0]})") from None
 
 
 def _is_number(v: Any) -> bool:
@@ -391,7 +400,6 @@ def _check_fields(obj: Any, spec: Mapping[str, str], what: str = "message") -> N
 def _parse_topic(topic: str, msgs: list[tuple[int, int, bytes]]) -> tuple[np.ndarray, dict[str, list]]:
     """Validate one topic's messages; return log times and columns."""
     spec = S.TOPICS[topic].fields
-    times = np.fromiter((m[0] for m in msgs), dtype=np.int64, count=len(msgs))
     cols: dict[str, list] = {name: [] for name in spec}
     last = None
     for i, (log_time, publish_time, data) in enumerate(msgs):
@@ -399,10 +407,15 @@ def _parse_topic(topic: str, msgs: list[tuple[int, int, bytes]]) -> tuple[np.nda
         try:
             if publish_time != log_time:
                 raise ValueError(f"publish_time {publish_time} differs from log_time {log_time}")
+            if log_time >= _MAX_TIME_NS:
+                raise ValueError("log_time is beyond the year 2262 (damaged time field)")
             if last is not None and log_time <= last:
                 raise ValueError(f"log_time does not increase ({log_time} after {last})")
             last = log_time
-            obj = _decode_json(data)
+            try:
+                obj = _decode_json(data)
+            except ValueError as exc:
+                raise ValueError(f"message {exc}") from None
             _check_fields(obj, spec)
             valid = True
             if "valid" in spec:
@@ -437,6 +450,7 @@ def _parse_topic(topic: str, msgs: list[tuple[int, int, bytes]]) -> tuple[np.nda
                     cols[name].append(pts)
         except ValueError as exc:
             raise _TopicError(where, f"message {i} (log_time {log_time}): {exc}") from None
+    times = np.fromiter((m[0] for m in msgs), dtype=np.int64, count=len(msgs))
     return times, cols
 
 
@@ -459,8 +473,7 @@ def _frame(topic: str, times_ns: np.ndarray, cols: dict[str, list], start_ns: in
             np.zeros(0, dtype=np.int64),
             "x_m": xz[:, 0], "z_m": xz[:, 1],
         })
-        # Frame times survive frames with no points, so writing back loses nothing.
-        df.attrs["frame_t_s"] = t_s
+        # A frame with no points has no rows: the long format cannot hold it.
         return df
     data: dict[str, Any] = {}
     for name, kind in S.TOPICS[topic].fields.items():
@@ -495,7 +508,7 @@ def _check_schema_and_channel(path, topic: str, sid: int, msg_encoding: str, raw
     try:
         doc = _decode_json(data)
     except ValueError as exc:
-        raise LogError(path, where, f"schema {name!r} is not JSON: {exc}") from None
+        raise LogError(path, where, f"schema {name!r} {exc}") from None
     if not isinstance(doc, dict):
         raise LogError(path, where, f"schema {name!r} is not a JSON object")
     props = doc.get("properties")
@@ -639,14 +652,9 @@ def _topic_messages(topic: str, df: pd.DataFrame) -> list[tuple[float, dict]]:
     spec = S.TOPICS[topic].fields
     out: list[tuple[float, dict]] = []
     if topic == "/video/hose":
-        frame_t = df.attrs.get("frame_t_s")
-        frame_t = np.unique(df["t_s"].to_numpy(float)) if frame_t is None else np.asarray(frame_t)
-        groups = {t: g for t, g in df.groupby("t_s", sort=True)}
-        for t in frame_t:
-            g = groups.get(t)
-            pts = [] if g is None else [
-                {"x_m": float(x), "z_m": float(z)}
-                for x, z in zip(g.sort_values("point")["x_m"], g.sort_values("point")["z_m"])]
+        for t, g in df.groupby("t_s", sort=True):
+            g = g.sort_values("point")
+            pts = [{"x_m": float(x), "z_m": float(z)} for x, z in zip(g["x_m"], g["z_m"])]
             out.append((float(t), {"points": pts}))
         return out
     t_s = df.index.to_numpy(float)
@@ -884,8 +892,3 @@ def make_record(info: TestInfo | Mapping[str, str], topics: Mapping[str, pd.Data
     if not isinstance(info, TestInfo):
         info = TestInfo.from_metadata(dict(info))
     return FlightRecord(info=info, topics=dict(topics), start_time_ns=int(start_time_ns))
-
-
-def iter_records(paths: Iterable[str | os.PathLike]) -> Iterable[FlightRecord]:
-    for p in paths:
-        yield read_record(p)

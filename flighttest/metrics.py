@@ -212,6 +212,13 @@ def fit_damped_sinusoid(t, y, *, f0: float, zeta0: float = 0.05,
                                      xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400)
         if best is None or sol.cost < best.cost:
             best = sol
+        # The other starts are insurance against a poor initial guess; a
+        # solution near the guess, away from the bounds, does not need them.
+        s_fit, w_fit = best.x[0], best.x[1]
+        z_fit = s_fit / math.hypot(s_fit, w_fit)
+        if (best.success and 0.5 * zeta0 < z_fit < 2.0 * zeta0
+                and not np.any(np.isclose(best.x, lo)) and not np.any(np.isclose(best.x, hi))):
+            break
     p = best.x
     s, w = float(p[0]), float(p[1])
     r = best.fun
@@ -455,9 +462,13 @@ def free_decay_segment(t, y, *, f_hint: float | None = None, fmin: float = 0.0,
     n_per = max(int(round(fs / f_hint)), 1)
     env = np.convolve(env, np.ones(n_per) / n_per, mode="same")
     floor = float(np.median(env[-max(len(env) // 10, n_per):]))
+    # Mean envelope of white noise after the band-pass: the band keeps a
+    # share 2 (hi - lo) / fs of its variance, and a Rayleigh envelope
+    # averages sqrt(pi / 2) standard deviations.
     sigma = noise_std(y) * math.sqrt(2.0 * (hi - lo) / fs) * math.sqrt(math.pi / 2)
-    # The floor is the larger of the band-limited white noise and what the
-    # record's quiet tail actually shows (which includes slow disturbances).
+    # The floor is the larger of that and what the record's quiet tail shows
+    # (sustained vibration of the rig, say), the latter capped at a tenth of
+    # the starting amplitude in case the record ends before the decay does.
     thresh = max(end_fraction * env[i0], end_snr * max(sigma, min(floor, env[i0] / 10)))
     below = np.flatnonzero(env[i0:] < thresh)
     i1 = i0 + int(below[0]) if len(below) else len(y) - 1
@@ -819,16 +830,19 @@ def wave_speed_xcorr(t, x_stations, Z, *, ref: int | None = None,
 
 
 def front_arrival_times(t, Z, t_event: float, *, baseline_s: float = 2.0, frac: float = 0.5,
-                        min_snr: float = 4.0, horizon_s: float = 5.0) -> np.ndarray:
+                        min_snr: float = 4.0, lobe_fraction: float = 0.5,
+                        horizon_s: float = 5.0) -> np.ndarray:
     """Arrival time, after `t_event`, of the first disturbance at each station.
 
     Method: each station's deviation from its mean over the `baseline_s`
     before the event; the first lobe is the first run of same-sign
-    deviation that contains a sample beyond `min_snr` baseline standard
-    deviations; the arrival is where the deviation first reaches `frac` of
-    that lobe's peak (linear interpolation between frames).  Using a fixed
-    fraction of each station's own peak times the same phase of the front
-    everywhere, whatever its amplitude there.  NaN where no lobe is found.
+    deviation whose peak exceeds both `min_snr` baseline standard
+    deviations and `lobe_fraction` of the largest deviation within
+    `horizon_s` (so a noise blip before the front is not taken for it); the
+    arrival is where the deviation first reaches `frac` of that lobe's peak
+    (linear interpolation between frames).  Using a fixed fraction of each
+    station's own peak times the same phase of the front everywhere,
+    whatever its amplitude there.  NaN where no lobe is found.
     """
     t, Z = _as_float(t), _as_float(Z)
     pre = (t >= t_event - baseline_s) & (t < t_event)
@@ -843,19 +857,18 @@ def front_arrival_times(t, Z, t_event: float, *, baseline_s: float = 2.0, frac: 
         if len(zb) < 3 or len(zp) < 3:
             continue
         d = zp - zb.mean()
-        thr = min_snr * max(zb.std(ddof=1), 1e-12)
-        big = np.flatnonzero(np.abs(d) > thr)
-        if len(big) == 0:
+        thr = max(min_snr * zb.std(ddof=1), lobe_fraction * np.abs(d).max(), 1e-12)
+        # Runs of one sign: [a, b) index ranges.
+        sgn_all = np.sign(d)
+        cuts = np.flatnonzero(np.diff(sgn_all)) + 1
+        starts = np.concatenate([[0], cuts])
+        stops = np.concatenate([cuts, [len(d)]])
+        first = next(((a, b) for a, b in zip(starts, stops) if np.abs(d[a:b]).max() > thr), None)
+        if first is None:
             continue
-        k = big[0]
-        sgn = np.sign(d[k])
-        a = k
-        while a > 0 and np.sign(d[a - 1]) == sgn:
-            a -= 1
-        b = k
-        while b + 1 < len(d) and np.sign(d[b + 1]) == sgn:
-            b += 1
-        lobe = sgn * d[a:b + 1]
+        a, b = first
+        sgn = sgn_all[a]
+        lobe = sgn * d[a:b]
         level = frac * lobe.max()
         i = a + int(np.argmax(lobe >= level))
         if i == 0:
@@ -884,7 +897,7 @@ def wave_speed_from_arrivals(x, t_arrival) -> WaveSpeed:
     if len(x) < 4:
         raise ValueError("fewer than 4 stations with an arrival time")
     span = float(x.max() - x.min())
-    slope1, icpt1 = np.polyfit(x, ta, 1)
+    slope1 = float(np.polyfit(x, ta, 1)[0])
 
     def model(p):
         a, b, s = p
@@ -910,10 +923,8 @@ def wave_speed_from_arrivals(x, t_arrival) -> WaveSpeed:
     J = best.jac
     cov = np.linalg.pinv(J.T @ J) * float(r @ r) / dof
     se = float(math.sqrt(max(cov[2, 2], 0.0)) / s ** 2)
-    if both:
-        direction = 0
-    else:
-        direction = -1 if x_meet <= x.min() + 0.1 * span else 1
+    direction = 0
+    if not both:
         # One front only: a straight line is the model; its slope sign is the sense.
         (sl, _), cv = np.polyfit(x, ta, 1, cov=True)
         s = abs(sl)

@@ -35,7 +35,7 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
 
 def _topic_line(topic: str, df) -> str:
     if topic == "/video/hose":
-        frames = np.asarray(df.attrs.get("frame_t_s", np.unique(df["t_s"])), dtype=float)
+        frames = np.unique(df["t_s"].to_numpy(float))
         counts = df.groupby("t_s").size()
         t = frames
         n = len(frames)
