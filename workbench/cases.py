@@ -17,6 +17,8 @@ Layout (every table but [hardware] and [condition] is optional):
     [model.structure]  EI_N_m2, EA_N, bending_damping_N_m2_s, axial_damping_N_s
     [tow_motion] kind ("none" | "sine_doublet"), amplitude_m, period_s, start_s
     [run]        duration_s, record_dt_s
+    [effects.NAME]  unmodelled effects by name with their parameters (`solver.effects`;
+                 `workbench.effects_case`), e.g. [effects.tanker_wake] strength = 1.0
 """
 from __future__ import annotations
 
@@ -38,6 +40,7 @@ from workbench.errors import InputError
 from workbench.hardware import Hardware, load_hardware
 
 KINDS = ("ringdown_bending", "ringdown_axial", "pitch_doublet", "trail", "engagement")
+ARRAY_TABLES = ("variants", "gates")
 FT = 0.3048
 
 
@@ -72,6 +75,7 @@ SCHEMA = {
         "title": Field(str, ""),
         "kind": Field(str, required=True, check=_one_of(*KINDS)),
         "description": Field(str, ""),
+        "logs": Field(list, []),
     },
     "hardware": {
         "hose": Field(str, required=True),
@@ -85,12 +89,15 @@ SCHEMA = {
         "hose_fuel": Field(str, "full", _one_of("full", "empty")),
         "hose_length_ft": Field(NUM, None, _positive),
         "oat_F": Field(NUM, None, lambda v: None if -130 <= v <= 150 else "must lie in -130..150"),
+        "tanker_gross_weight_lb": Field(NUM, None, _positive),
+        "from_log": Field(bool, False),
     },
     "model": {
         "n_elements": Field(int, 40, _int_range(4, 200)),
         "drogue_lift_scale": Field(NUM, 1.0, _nonneg),
         "drogue_drag_scale": Field(NUM, 1.0, _positive),
-        "reel": Field(str, "locked", _one_of("locked", "drum")),
+        "reel": Field(str, "locked", _one_of("locked", "drum", "from_log")),
+        "drogue_after_contact": Field(str, "free", _one_of("free", "from_log")),
         "reel_torque_law": Field(str, "constant_tension", _one_of("constant_tension", "constant_torque")),
         "reel_torque_N_m": Field(NUM, None, _positive),
         "hinge_damping_N_m_s": Field(NUM, 0.0, _nonneg),
@@ -104,13 +111,30 @@ SCHEMA = {
         "source": Field(str, "nominal"),
     },
     "tow_motion": {
-        "kind": Field(str, "none", _one_of("none", "sine_doublet")),
+        "kind": Field(str, "none", _one_of("none", "sine_doublet", "from_log")),
         "amplitude_m": Field(NUM, 0.0, _nonneg),
         "period_s": Field(NUM, 2.0, _positive),
         "start_s": Field(NUM, 1.0, _nonneg),
     },
+    "variants": {
+        "id": Field(str, required=True),
+        "label": Field(str, ""),
+        "drogue_lift_scale": Field(NUM, None, _nonneg),
+        "drogue_drag_scale": Field(NUM, None, _positive),
+        "reel": Field(str, None, _one_of("locked", "drum", "from_log")),
+        "tune_drogue_lift_on": Field(list, []),
+    },
+    "gates": {
+        "metric": Field(str, required=True),
+        "variant": Field(str, None),
+        "logs": Field(list, []),
+        "max": Field(NUM, None),
+        "min": Field(NUM, None),
+        "abs": Field(bool, True),
+        "source": Field(str, required=True),
+    },
     "run": {
-        "duration_s": Field(NUM, 10.0, _positive),
+        "duration_s": Field(NUM, None, _positive),
         "record_dt_s": Field(NUM, 0.01, _positive),
     },
 }
@@ -138,9 +162,13 @@ def _check_table(path: str, name: str, raw: dict) -> dict:
         if key not in schema:
             raise InputError(f"{path}: {where}unknown key '{key}' (known: {', '.join(schema)})")
         f = schema[key]
-        ok = isinstance(value, f.kind) and not (isinstance(value, bool) and f.kind in (NUM, int))
+        if f.kind is list:
+            ok = isinstance(value, list) and all(isinstance(v, str) for v in value)
+        else:
+            ok = isinstance(value, f.kind) and not (isinstance(value, bool) and f.kind in (NUM, int))
         if not ok:
-            want = "a number" if f.kind is NUM else ("an integer" if f.kind is int else "a string")
+            want = {list: "a list of strings", bool: "true or false", int: "an integer",
+                    str: "a string"}.get(f.kind, "a number")
             raise InputError(f"{path}: {where}{key} must be {want}, got {value!r}")
         if isinstance(value, float) and not math.isfinite(value):
             raise InputError(f"{path}: {where}{key} must be finite, got {value!r}")
@@ -166,11 +194,20 @@ def load_case(path: str | Path) -> Case:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError(f"{p}: not valid TOML ({exc})") from None
     tables = {}
-    tables[""] = _check_table(str(p), "", {k: v for k, v in raw.items() if not isinstance(v, dict)})
+    arrays = {k: v for k, v in raw.items() if k in ARRAY_TABLES}
+    for k, v in arrays.items():
+        if not (isinstance(v, list) and all(isinstance(x, dict) for x in v)):
+            raise InputError(f"{p}: {k} must be an array of tables ([[{k}]])")
+    tables[""] = _check_table(str(p), "", {k: v for k, v in raw.items()
+                                           if not isinstance(v, dict) and k not in ARRAY_TABLES})
     for key, value in raw.items():
+        if key == "effects":
+            from workbench.effects_case import check_effects_table
+            tables["effects"] = check_effects_table(str(p), value)
+            continue
         if isinstance(value, dict):
-            if key not in SCHEMA:
-                known = ", ".join(k for k in SCHEMA if k and "." not in k)
+            if key not in SCHEMA or key in ARRAY_TABLES:
+                known = ", ".join(k for k in SCHEMA if k and "." not in k and k not in ARRAY_TABLES)
                 raise InputError(f"{p}: unknown table [{key}] (known: {known})")
             tables[key] = _check_table(str(p), key, value)
             for sub, subval in value.items():
@@ -179,7 +216,20 @@ def load_case(path: str | Path) -> Case:
                     if name not in SCHEMA:
                         raise InputError(f"{p}: unknown table [{name}]")
                     tables[name] = _check_table(str(p), name, subval)
+    tables.setdefault("effects", {})
+    for name in ARRAY_TABLES:
+        tables[name] = [_check_table(str(p), name, item) for item in arrays.get(name, [])]
+    ids = [v["id"] for v in tables["variants"]]
+    if len(set(ids)) != len(ids):
+        raise InputError(f"{p}: [[variants]] ids must be unique, got {ids}")
+    for g in tables["gates"]:
+        if g["max"] is None and g["min"] is None:
+            raise InputError(f"{p}: [[gates]] metric '{g['metric']}' needs a max or a min threshold")
+        if g["variant"] is not None and g["variant"] not in ids:
+            raise InputError(f"{p}: [[gates]] metric '{g['metric']}' names unknown variant '{g['variant']}'")
     for name in SCHEMA:
+        if name in ARRAY_TABLES:
+            continue
         if name not in tables:
             if any(f.required for f in SCHEMA[name].values()) and name != "model.structure":
                 raise InputError(f"{p}: missing table [{name}]")
@@ -198,21 +248,61 @@ def _sheet(case: Case, hw: Hardware, kind: str, ident: str):
         raise InputError(f"{case.path}: [hardware] {kind} '{ident}' is not in {exc}") from None
 
 
-def build_model(case: Case, hardware: Hardware | None = None) -> Model:
-    """The solver model a checked case describes."""
+def case_log_paths(case: Case) -> list[Path]:
+    """The case's logs: relative to the project's log folder unless absolute."""
+    from workbench.hardware import DEFAULT_PATH
+    base = DEFAULT_PATH.parent
+    return [Path(p) if Path(p).is_absolute() else base / p for p in case[""]["logs"]]
+
+
+def build_model(case: Case, hardware: Hardware | None = None, record=None,
+                variant: dict | None = None) -> Model:
+    """The solver model a checked case describes, for one of its logs (`record`,
+    a flighttest.FlightRecord, when the case takes anything from the log) and
+    one of its variants (model overrides)."""
     hw = hardware if hardware is not None else load_hardware()
     h = case["hardware"]
     cond = case["condition"]
-    mod = case["model"]
+    mod = dict(case["model"])
+    for key, value in (variant or {}).items():
+        if key in mod and value is not None:
+            mod[key] = value
     st = case["model.structure"]
+    from_log = cond["from_log"] or mod["reel"] == "from_log" or case["tow_motion"]["kind"] == "from_log"
+    if from_log and record is None:
+        raise InputError(f"{case.path}: takes its condition or motions from a log, but none was given "
+                         f"(list them in 'logs')")
     hs = _sheet(case, hw, "hose", h["hose"])
-    length = cond["hose_length_ft"] * FT if cond["hose_length_ft"] else hs.length
+    if cond["from_log"]:
+        from workbench import log_inputs
+        fc = log_inputs.flight_condition(record)
+        info = record.info
+        length = info.hose_length_m if info.hose_length_m else hs.length
+        fuel_full = (info.hose_fuel or cond["hose_fuel"]) == "full"
+        density, nu, tas = fc["density"], fc["kinematic_viscosity"], fc["true_airspeed_mps"]
+    else:
+        length = cond["hose_length_ft"] * FT if cond["hose_length_ft"] else hs.length
+        fuel_full = cond["hose_fuel"] == "full"
+        alt_m = cond["altitude_ft"] * FT
+        d_temp = 0.0
+        if cond["oat_F"] is not None:
+            d_temp = (cond["oat_F"] - 32.0) * 5.0 / 9.0 + 273.15 - isa(alt_m).temperature
+        atm = isa(alt_m, delta_temperature=d_temp)
+        density, nu = atm.density, atm.kinematic_viscosity
+        tas = kcas_to_tas(cond["airspeed_kcas"], cond["altitude_ft"], d_temp) if cond["airspeed_kcas"] > 0 else 0.0
+    reel = ReelProperties()
+    if mod["reel"] == "from_log":
+        from workbench import log_inputs
+        t_pay, L_pay = log_inputs.payout(record)
+        # the hose out at the start of the log is the hose the model trails
+        length = float(L_pay[0])
+        reel = ReelProperties(mode="prescribed", payout_t=t_pay, payout_length=L_pay)
     hose = HoseProperties(
         length=length, outer_diameter=hs.outer_diameter, inner_diameter=hs.inner_diameter,
         dry_mass_per_length=hs.dry_mass_per_length, EI=float(st["EI_N_m2"]), EA=float(st["EA_N"]),
         bending_damping=float(st["bending_damping_N_m2_s"]), axial_damping=float(st["axial_damping_N_s"]),
-        fuel_density=hw.fuel_density, fuel_full=cond["hose_fuel"] == "full",
-        total_length=hs.length if hs.length > length else None)
+        fuel_density=hw.fuel_density, fuel_full=fuel_full,
+        total_length=max(hs.length, length) if mod["reel"] != "locked" else None)
     drogue = None
     if h["drogue"]:
         ds = _sheet(case, hw, "drogue", h["drogue"])
@@ -222,7 +312,6 @@ def build_model(case: Case, hardware: Hardware | None = None) -> Model:
                                   drag_scale=float(mod["drogue_drag_scale"]),
                                   hinge_damping=float(mod["hinge_damping_N_m_s"]),
                                   hinge_friction=float(mod["hinge_friction_N_m"]))
-    reel = ReelProperties()
     if mod["reel"] == "drum":
         if not h["reel"]:
             raise InputError(f"{case.path}: [model] reel = 'drum' needs [hardware] reel")
@@ -230,22 +319,23 @@ def build_model(case: Case, hardware: Hardware | None = None) -> Model:
         reel = ReelProperties(mode="drum", drum_radius_empty=rs.drum_radius_empty, drum_width=rs.drum_width,
                               drum_inertia_empty=rs.drum_inertia_empty, torque_law=mod["reel_torque_law"],
                               torque=mod["reel_torque_N_m"])
-    alt_m = cond["altitude_ft"] * FT
-    d_temp = 0.0
-    if cond["oat_F"] is not None:
-        d_temp = (cond["oat_F"] - 32.0) * 5.0 / 9.0 + 273.15 - isa(alt_m).temperature
-    atm = isa(alt_m, delta_temperature=d_temp)
-    tas = kcas_to_tas(cond["airspeed_kcas"], cond["altitude_ft"], d_temp) if cond["airspeed_kcas"] > 0 else 0.0
-    tow = _tow_motion(case)
-    return Model(hose, int(mod["n_elements"]), atm.density, atm.kinematic_viscosity, wind=freestream(tas),
-                 drogue=drogue, reel=reel, tow=tow)
+    if case["tow_motion"]["kind"] == "from_log":
+        from workbench import log_inputs
+        tow = log_inputs.tow_trajectory(record)
+    else:
+        tow = _tow_motion(case)
+    model = Model(hose, int(mod["n_elements"]), density, nu, wind=freestream(tas),
+                  drogue=drogue, reel=reel, tow=tow)
+    from workbench.effects_case import apply_case_effects
+    alt = fc["altitude_m"] if cond["from_log"] else cond["altitude_ft"] * FT
+    return apply_case_effects(case, model, hw, record, tas, density, alt)
 
 
 def _tow_motion(case: Case) -> Trajectory:
     tm = case["tow_motion"]
     if tm["kind"] == "none":
         return Trajectory.fixed()
-    dur = float(case["run"]["duration_s"])
+    dur = float(case["run"]["duration_s"] or 10.0)
     t = np.linspace(0.0, max(dur, tm["start_s"] + tm["period_s"]), int(max(dur, 1.0) * 200) + 1)
     phase = (t - tm["start_s"]) / tm["period_s"]
     z = np.where((phase > 0) & (phase < 1), tm["amplitude_m"] * np.sin(2 * np.pi * phase), 0.0)

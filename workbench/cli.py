@@ -24,12 +24,15 @@ cli.add_command(logs)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
               show_default=True, help="Folder for the run's outputs.")
 @click.option("--duration", type=float, default=None, help="Simulated seconds (default: the case's).")
-def run(case_file: Path, out_dir: Path, duration: float | None) -> None:
+@click.option("--effect", "effects", multiple=True, metavar="NAME[:key=value,...]",
+              help="Turn on an unmodelled effect, over the case's [effects.NAME] (repeatable).")
+def run(case_file: Path, out_dir: Path, duration: float | None, effects: tuple[str, ...]) -> None:
     """Simulate one case: static trail, then the run; write time series, summary and plot."""
     from workbench.cases import load_case
+    from workbench.effects_case import parse_effect_options, with_effects
     from workbench.run import run_case, write_outputs
     try:
-        case = load_case(case_file)
+        case = with_effects(load_case(case_file), parse_effect_options(effects))
         outcome = run_case(case, duration)
         paths = write_outputs(outcome, out_dir)
     except InputError as exc:
@@ -40,8 +43,60 @@ def run(case_file: Path, out_dir: Path, duration: float | None) -> None:
     click.echo(f"  static trail ({s['static_solve_ms']:.1f} ms): end at x={s['end_static_x_m']:.2f} "
                f"z={s['end_static_z_m']:.2f} m, tow tension {s['tow_tension_static_N']:.0f} N")
     click.echo(f"  end vertical range {s['end_z_range_m']:.3f} m, peak tow tension {s['tow_tension_max_N']:.0f} N")
+    for name, vals in case.tables.get("effects", {}).items():
+        click.echo(f"  effect {name}: " + ", ".join(f"{k}={v:g}" for k, v in vals.items()))
     for p in paths:
         click.echo(f"  wrote {p}")
+
+
+@cli.command()
+@click.argument("targets", nargs=-1, required=True)
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
+              show_default=True, help="Folder for report.html, report.pdf, results.json, junit.xml.")
+@click.option("--workers", type=int, default=None, help="Processes (default: one per core).")
+@click.option("--no-progress", is_flag=True, help="No progress bar.")
+def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool) -> None:
+    """Run cases against their logs and gate them: `validate all` or `validate CASE...`.
+
+    Exit status: 0 all gates pass, 1 a gate fails (a finding about the model),
+    2 a case could not run (a defect or bad input)."""
+    import time
+    from workbench.report import gate_message, write_report
+    from workbench.validate import results_dict, validate_cases
+    root = Path(__file__).resolve().parent.parent / "cases"
+    if list(targets) == ["all"]:
+        paths = sorted(root.glob("*.toml"))
+    else:
+        paths = []
+        for t in targets:
+            p = Path(t)
+            if not p.exists() and (root / f"{t}.toml").exists():
+                p = root / f"{t}.toml"
+            if not p.exists():
+                raise click.ClickException(f"{t}: no such case file (nor cases/{t}.toml)")
+            paths.append(p)
+    t0 = time.perf_counter()
+    try:
+        outcomes = validate_cases(paths, workers=workers, progress=not no_progress)
+    except InputError as exc:
+        raise click.ClickException(str(exc)) from None
+    results = results_dict(outcomes)
+    wall = time.perf_counter() - t0
+    results["wall_s"] = wall
+    files = write_report(outcomes, results, out_dir, wall)
+    n_g = sum(len(c["gates"]) for c in results["cases"])
+    n_ok = sum(g["passed"] for c in results["cases"] for g in c["gates"])
+    click.echo(f"{len(outcomes)} cases, {n_ok}/{n_g} gates pass, {wall:.1f} s; report {files['html']}")
+    errors = [f"{c['id']}: did not run: {c['error']}" for c in results["cases"] if c["error"]]
+    failures = [gate_message(c["id"], g) for c in results["cases"] for g in c["gates"] if not g["passed"]]
+    for f in errors:
+        click.echo(f"ERROR {f}", err=True)
+    for f in failures:
+        click.echo(f"FAIL {f}", err=True)
+    if errors:
+        sys.exit(2)
+    if failures:
+        sys.exit(1)
 
 
 def main() -> None:

@@ -12,7 +12,7 @@ from workbench.errors import InputError
 from workbench.hardware import load_hardware
 
 ROOT = Path(__file__).resolve().parents[2]
-DEMO = ROOT / "cases" / "kdc10_doublet_demo.toml"
+DEMO = ROOT / "cases" / "demo" / "kdc10_doublet_demo.toml"
 
 
 def edited(tmp_path, old, new):
@@ -25,7 +25,7 @@ def edited(tmp_path, old, new):
 
 def test_every_case_file_loads_and_builds():
     hw = load_hardware()
-    files = sorted((ROOT / "cases").glob("*.toml"))
+    files = sorted((ROOT / "cases").glob("**/*.toml"))
     assert files
     for f in files:
         model = build_model(load_case(f), hw)

@@ -1,0 +1,164 @@
+"""Report figures: the paper's figures reproduced with our data, simulation over log."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from flighttest import read_record  # noqa: E402
+from flighttest.compare import engagement_moments  # noqa: E402
+
+COLORS = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
+
+
+def _save(fig, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def _variant_label(case, vid):
+    for v in case["variants"]:
+        if v["id"] == vid:
+            return v["label"] or vid
+    return vid
+
+
+def _runs_by_log(outcome):
+    logs = {}
+    for r in outcome.runs:
+        logs.setdefault(r.log_id, []).append(r)
+    return logs
+
+
+def doublet_figures(outcome, out_dir: Path) -> list[Path]:
+    """Fig. 11: drogue vertical response to the doublet, log and each variant,
+    with the steady-height gate's tolerance drawn about the log."""
+    paths = []
+    tol = next((g.threshold for g in outcome.gates if g.metric == "drogue_steady_z_error_m"), None)
+    for log_id, runs in _runs_by_log(outcome).items():
+        rec = read_record(runs[0].log_path)
+        ors = rec.topic("/ors/drogue")
+        ok = ors["valid"].to_numpy(bool)
+        fig, ax = plt.subplots(figsize=(8, 3.6))
+        t = ors.index.to_numpy(float)[ok]
+        z = ors["z_m"].to_numpy(float)[ok]
+        ax.plot(t, z, ".", ms=2, color="k", label="flight (ORS)")
+        if tol is not None:
+            zs = runs[0].metrics.get("drogue_steady_z_m_log")
+            if zs is not None:
+                ax.axhspan(zs - tol, zs + tol, color="0.85", label=f"steady-height gate +/-{tol:g} m")
+        for i, r in enumerate(runs):
+            ax.plot(r.result.t, r.result.end_xyz[:, 2], color=COLORS[i % 5], lw=1.2,
+                    label=_variant_label(outcome.case, r.variant))
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("drogue z (m)")
+        ax.set_title(f"{log_id}: drogue response to the pitch doublet")
+        ax.legend(fontsize=7, loc="lower right")
+        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-drogue-z.png"))
+    return paths
+
+
+def trail_figures(outcome, out_dir: Path) -> list[Path]:
+    """Fig. 13-15: steady trail, video points against each variant's hose."""
+    paths = []
+    for log_id, runs in _runs_by_log(outcome).items():
+        rec = read_record(runs[0].log_path)
+        hose = rec.topic("/video/hose")
+        fig, ax = plt.subplots(figsize=(8, 3.6))
+        ax.plot(hose["x_m"], hose["z_m"], ".", ms=2, color="0.5", label="flight (video points)")
+        for i, r in enumerate(runs):
+            p = r.result.hose_points(len(r.result.t) - 1)
+            rms = r.metrics.get("trail_shape_rms_error_m")
+            ax.plot(p[:, 0], p[:, 2], color=COLORS[i % 5], lw=1.4,
+                    label=f"{_variant_label(outcome.case, r.variant)} (RMS {rms:.2f} m)" if rms else r.variant)
+        ax.set_xlabel("x aft of tow point (m)")
+        ax.set_ylabel("z (m)")
+        ax.set_title(f"{log_id}: steady trail")
+        ax.legend(fontsize=7, loc="lower left")
+        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-trail.png"))
+    return paths
+
+
+def engagement_figures(outcome, out_dir: Path) -> list[Path]:
+    """Fig. 17-19: reel length, drogue motion, hose progression at the six
+    moments drawn over the video points, shape error over time, probe load."""
+    paths = []
+    for log_id, runs in _runs_by_log(outcome).items():
+        rec = read_record(runs[0].log_path)
+        moments = engagement_moments(rec)
+        reel = rec.topic("/reel/hose_out")
+        ors = rec.topic("/ors/drogue")
+        ok = ors["valid"].to_numpy(bool)
+        fig, axes = plt.subplots(2, 2, figsize=(10, 6))
+        ax = axes[0, 0]
+        ax.plot(reel.index, reel["length_m"], color="k", lw=1, label="flight")
+        for i, r in enumerate(runs):
+            ax.plot(r.result.t, r.result.reel_length, color=COLORS[i % 5], lw=1,
+                    label=_variant_label(outcome.case, r.variant))
+        ax.set_ylabel("hose out (m)")
+        ax.set_title("reel (Fig. 17)")
+        ax.legend(fontsize=7)
+        ax = axes[0, 1]
+        x0 = np.median(ors["x_m"].to_numpy(float)[ok][:30])
+        z0 = np.median(ors["z_m"].to_numpy(float)[ok][:30])
+        ax.plot(ors.index[ok], ors["x_m"][ok] - x0, ".", ms=2, color="k", label="flight x")
+        ax.plot(ors.index[ok], ors["z_m"][ok] - z0, ".", ms=2, color="0.5", label="flight z")
+        r = runs[0]
+        e = r.result.end_xyz
+        ax.plot(r.result.t, e[:, 0] - e[0, 0], color=COLORS[0], lw=1, label="model x")
+        ax.plot(r.result.t, e[:, 2] - e[0, 2], color=COLORS[1], lw=1, label="model z")
+        ax.set_ylabel("drogue change (m)")
+        ax.set_title("drogue (Fig. 18)")
+        ax.legend(fontsize=7)
+        ax = axes[1, 0]
+        for i, r in enumerate(runs):
+            ts = np.array(r.metrics.get("shape_error_time_s") or [])
+            es = np.array([np.nan if v is None else v for v in (r.metrics.get("shape_error_rms_m") or [])])
+            ax.plot(ts, es, color=COLORS[i % 5], lw=1, label=_variant_label(outcome.case, r.variant))
+        for name, tm in moments.items():
+            ax.axvline(tm, color="0.7", lw=0.8)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("hose shape RMS error (m)")
+        ax.set_title("shape error vs video")
+        ax = axes[1, 1]
+        for i, r in enumerate(runs):
+            ax.plot(r.result.t, np.linalg.norm(r.result.probe_force, axis=1) / 1e3, color=COLORS[i % 5], lw=1,
+                    label=_variant_label(outcome.case, r.variant))
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("probe load (kN)")
+        ax.set_title("loads on the probe")
+        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-engagement.png"))
+
+        hose = rec.topic("/video/hose")
+        times = np.unique(hose["t_s"].to_numpy(float))
+        fig, axes = plt.subplots(3, 2, figsize=(10, 7), sharex=True, sharey=True)
+        for ax, (name, tm) in zip(axes.ravel(), moments.items()):
+            tf = times[np.argmin(np.abs(times - tm))]
+            fr = hose[hose["t_s"] == tf]
+            ax.plot(fr["x_m"], fr["z_m"], "o", ms=3, color="k", label="video")
+            for i, r in enumerate(runs):
+                k = int(np.argmin(np.abs(r.result.t - tf)))
+                p = r.result.hose_points(k)
+                ax.plot(p[:, 0], p[:, 2], color=COLORS[i % 5], lw=1.2,
+                        label=_variant_label(outcome.case, r.variant))
+            ax.set_title(f"{name.replace('_', ' ')} (t={tf:.1f} s)", fontsize=9)
+        axes[0, 0].legend(fontsize=7)
+        fig.suptitle(f"{log_id}: hose progression (Fig. 19)")
+        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-progression.png"))
+    return paths
+
+
+FIGURES = {"pitch_doublet": doublet_figures, "trail": trail_figures, "engagement": engagement_figures}
+
+
+def case_figures(outcome, out_dir: Path) -> list[Path]:
+    fn = FIGURES.get(outcome.case.kind)
+    if fn is None or not outcome.runs:
+        return []
+    return fn(outcome, out_dir)

@@ -1,0 +1,92 @@
+"""What a flight log prescribes to the simulation: flight condition, tow-point
+motion, reel payout and the drogue's path while the probe holds it.
+
+Measured channels carry sensor noise; the solver differentiates prescribed
+motions, so each is low-passed with a zero-phase filter well above the motion
+it carries (doublets and engagements live below 1 Hz) before it is handed over.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from flighttest import FlightRecord, LogError
+from solver.atmosphere import isa, cas_to_tas
+from solver.model import EndConstraint, Trajectory
+
+TOW_CUTOFF_HZ = 5.0
+REEL_CUTOFF_HZ = 5.0
+PROBE_CUTOFF_HZ = 3.0
+
+
+def _lowpass(t: np.ndarray, y: np.ndarray, cutoff_hz: float) -> np.ndarray:
+    fs = 1.0 / float(np.median(np.diff(t)))
+    if cutoff_hz >= 0.45 * fs or len(t) < 30:
+        return y
+    sos = signal.butter(4, cutoff_hz, fs=fs, output="sos")
+    return signal.sosfiltfilt(sos, y, axis=0)
+
+
+def flight_condition(rec: FlightRecord) -> dict:
+    """Altitude, true airspeed and air properties from the test card (the air
+    temperature is the logged OAT where there is one, else the standard day)."""
+    info = rec.info
+    if info.altitude_m is None or info.calibrated_airspeed_mps is None:
+        raise LogError(rec.path, "metadata altitude_ft/airspeed_kcas", "needed for a flight condition")
+    std = isa(info.altitude_m)
+    d_t = (info.oat_K - std.temperature) if info.oat_K is not None else 0.0
+    atm = isa(info.altitude_m, d_t)
+    tas = cas_to_tas(info.calibrated_airspeed_mps, info.altitude_m, d_t)
+    return {"altitude_m": info.altitude_m, "delta_temperature_K": d_t, "density": atm.density,
+            "kinematic_viscosity": atm.kinematic_viscosity, "true_airspeed_mps": tas}
+
+
+def tow_trajectory(rec: FlightRecord) -> Trajectory:
+    df = rec.topic("/tanker/tow_point")
+    t = df.index.to_numpy(float)
+    xyz = df[["x_m", "y_m", "z_m"]].to_numpy(float)
+    return Trajectory(t, _lowpass(t, xyz, TOW_CUTOFF_HZ))
+
+
+def payout(rec: FlightRecord) -> tuple[np.ndarray, np.ndarray]:
+    df = rec.topic("/reel/hose_out")
+    t = df.index.to_numpy(float)
+    return t, _lowpass(t, df["length_m"].to_numpy(float), REEL_CUTOFF_HZ)
+
+
+def contact_window(rec: FlightRecord) -> tuple[float, float]:
+    ev = rec.topic("/probe/events")
+    contact = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "contact"]
+    if not contact:
+        raise LogError(rec.path, "topic /probe/events", "no contact event")
+    disc = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "disconnect" and t > contact[0]]
+    return contact[0], (disc[0] if disc else np.inf)
+
+
+def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray) -> EndConstraint:
+    """The drogue held by the probe from contact to disconnect, as the paper
+    prescribed it: its displacement from the steady trail before contact,
+    added to the model's own steady drogue position `drogue_start`.
+
+    The probe track (no dropouts) carries the motion; the drogue centre sits at
+    a fixed offset from the probe tip once engaged, measured as the median of
+    (drogue - probe) over the engaged fixes the optical tracker kept. The
+    steady position is the median of the valid fixes in the 3 s before contact."""
+    t_on, t_off = contact_window(rec)
+    probe = rec.topic("/receiver/probe")
+    tp = probe.index.to_numpy(float)
+    pp = probe[["x_m", "y_m", "z_m"]].to_numpy(float)
+    ors = rec.topic("/ors/drogue")
+    td_all = ors.index.to_numpy(float)
+    valid = ors["valid"].to_numpy(bool)
+    dd_all = ors[["x_m", "y_m", "z_m"]].to_numpy(float)
+    ok = valid & (td_all >= t_on + 0.5) & (td_all <= min(t_off, tp[-1]) - 0.5)
+    pre = valid & (td_all >= t_on - 3.0) & (td_all < t_on)
+    if ok.sum() < 5 or pre.sum() < 5:
+        raise LogError(rec.path, "topic /ors/drogue",
+                       "too few valid fixes around contact to place the drogue on the probe")
+    at_probe = np.column_stack([np.interp(td_all[ok], tp, pp[:, c]) for c in range(3)])
+    offset = np.median(dd_all[ok] - at_probe, axis=0)
+    steady = np.median(dd_all[pre], axis=0)
+    path = _lowpass(tp, pp, PROBE_CUTOFF_HZ) + offset - steady + np.asarray(drogue_start, dtype=float)
+    return EndConstraint(Trajectory(tp, path), t_on=t_on, t_off=t_off)

@@ -1,0 +1,307 @@
+"""`workbench validate`: run cases against their logs, measure, and gate.
+
+For every case, every (variant, log) pair is one run: the model is built from
+the case and the log (condition, tow-point motion, reel payout, the drogue on
+the probe), solved for its steady trail, run through the log's time span,
+saved in the log contract and compared with the log by `flighttest.compare`.
+Variants that tune a parameter (the drogue lift) are tuned first, on the
+logs they name, and gated on the others.
+"""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from flighttest import FlightRecord, LogError, analyze_record, read_record
+from flighttest.compare import compare_records
+from solver.integrate import DivergenceError, simulate
+from solver.result import SimulationResult
+from solver.statics import StaticSolveError, solve_static
+from workbench import log_inputs
+from workbench.cases import Case, build_model, case_log_paths, load_case
+from workbench.errors import InputError
+from workbench.simlog import result_to_record
+
+TRAIL_RUN_S = 2.0   # a steady trail is the static answer; a short run checks it holds
+
+
+@dataclass
+class Run:
+    case_id: str
+    variant: str
+    log_id: str
+    log_path: str
+    metrics: dict
+    result: SimulationResult
+    wall_s: float
+    model_options: dict
+    held_out: bool = True
+
+
+@dataclass
+class GateResult:
+    metric: str
+    variant: str
+    value: float | None
+    threshold: float
+    kind: str           # "max" or "min"
+    passed: bool
+    source: str
+    logs: list
+
+    @property
+    def margin(self) -> float | None:
+        if self.value is None:
+            return None
+        return self.threshold - self.value if self.kind == "max" else self.value - self.threshold
+
+
+@dataclass
+class CaseOutcome:
+    case: Case
+    runs: list[Run]
+    gates: list[GateResult]
+    tuned: dict = field(default_factory=dict)
+    error: str | None = None
+
+    @property
+    def passed(self) -> bool:
+        return self.error is None and all(g.passed for g in self.gates)
+
+
+def variants_of(case: Case) -> list[dict]:
+    v = case["variants"]
+    return v if v else [{"id": "baseline", "label": "baseline", "tune_drogue_lift_on": []}]
+
+
+def _overrides(variant: dict, tuned: dict) -> dict:
+    out = {k: variant[k] for k in ("drogue_lift_scale", "drogue_drag_scale", "reel")
+           if variant.get(k) is not None}
+    if variant["id"] in tuned:
+        out["drogue_lift_scale"] = tuned[variant["id"]]
+    return out
+
+
+def _run_duration(case: Case, rec: FlightRecord) -> float:
+    if case["run"]["duration_s"]:
+        return float(case["run"]["duration_s"])
+    if case.kind == "trail":
+        return TRAIL_RUN_S
+    return float(rec.topic("/ors/drogue").index[-1])
+
+
+def simulate_against(case: Case, variant: dict, rec: FlightRecord, tuned: dict) -> tuple[SimulationResult, dict]:
+    over = _overrides(variant, tuned)
+    model = build_model(case, record=rec, variant=over)
+    t0 = float(model.tow.t[0])
+    s0 = solve_static(model, t0)
+    if case["model"]["drogue_after_contact"] == "from_log":
+        model.end = log_inputs.drogue_while_engaged(rec, s0.pos[-1])
+    res = simulate(model, t0 + _run_duration(case, rec), s0, record_dt=float(case["run"]["record_dt_s"]))
+    options = {"n_elements": model.n_elements, "reel": model.reel.mode,
+               "drogue_lift_scale": model.drogue.lift_scale if model.drogue else None,
+               "drogue_drag_scale": model.drogue.drag_scale if model.drogue else None,
+               "drogue_after_contact": case["model"]["drogue_after_contact"],
+               "structure": case["model.structure"]["source"],
+               "true_airspeed_mps": model.wind.mean_speed, "air_density": model.air_density}
+    return res, options
+
+
+def _whip_metrics(res: SimulationResult, rec: FlightRecord) -> dict:
+    """Hose-whip measures of an engagement run (the paper's reel study and its
+    future work): peak slack, wave amplitude near the tow point, peak tension,
+    peak probe load."""
+    t_on, t_off = log_inputs.contact_window(rec)
+    eng = (res.t >= t_on) & (res.t <= min(t_off, res.t[-1]))
+    pre = res.t < t_on
+    out: dict[str, Any] = {}
+    if not eng.any():
+        return out
+    slack = []
+    for k in np.flatnonzero(eng):
+        p = res.hose_points(k)
+        arc = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+        slack.append(arc - float(np.linalg.norm(p[-1] - p[0])))
+    out["peak_slack_m"] = float(max(slack))
+    # 2 m down the hose from the tow point: how far the wave moves it sideways
+    k0 = np.flatnonzero(pre)[-1] if pre.any() else 0
+    i2 = max(1, int(round(2.0 / (res.reel_length[0] / res.n_hose_elements[0]))))
+    z_ref = res.hose_xyz[k0, i2, 2]
+    out["wave_amplitude_2m_from_tow_m"] = float(np.nanmax(np.abs(res.hose_xyz[eng, i2, 2] - z_ref)))
+    out["peak_tension_N"] = float(np.nanmax(res.tension[eng]))
+    out["tow_tension_peak_N"] = float(np.nanmax(np.linalg.norm(res.tow_force[eng], axis=1)))
+    out["probe_load_peak_N"] = float(np.nanmax(np.linalg.norm(res.probe_force[eng], axis=1)))
+    steady = eng & (res.t > t_on + 0.5 * (min(t_off, res.t[-1]) - t_on))
+    if steady.any():
+        out["probe_load_refuelling_mean_N"] = float(np.mean(np.linalg.norm(res.probe_force[steady], axis=1)))
+    return out
+
+
+def _one_run(args) -> Run:
+    case, variant, log_path, tuned = args
+    rec = read_record(log_path)
+    t0 = time.perf_counter()
+    res, options = simulate_against(case, variant, rec, tuned)
+    wall = time.perf_counter() - t0
+    sim_rec = result_to_record(res, rec, note=f"case {case.id}, variant {variant['id']}")
+    metrics = compare_records(rec, sim_rec)
+    if case.kind == "engagement":
+        metrics.update(_whip_metrics(res, rec))
+    held_out = rec.info.test_id not in variant.get("tune_drogue_lift_on", [])
+    return Run(case.id, variant["id"], rec.info.test_id, str(log_path), metrics, res, wall, options, held_out)
+
+
+def steady_drogue_z(rec: FlightRecord) -> float:
+    """The log's steady drogue height: the analysed steady value, or for an
+    engagement the median of the valid fixes before contact."""
+    if rec.info.test_kind == "engagement":
+        t_on, _ = log_inputs.contact_window(rec)
+        ors = rec.topic("/ors/drogue")
+        ok = ors["valid"].to_numpy(bool) & (ors.index < t_on)
+        return float(np.median(ors["z_m"].to_numpy(float)[ok]))
+    return float(analyze_record(rec)["drogue_steady_z_m"])
+
+
+def tune_drogue_lift(case: Case, variant: dict, records: list[FlightRecord]) -> float:
+    """The drogue lift scale that puts the model's steady drogue height on the
+    logs' (least squares over the tuning logs), by bounded scalar search on the
+    static solution (each evaluation one static solve)."""
+    targets = [(r, steady_drogue_z(r)) for r in records]
+
+    def cost(scale):
+        err = 0.0
+        for rec, z_log in targets:
+            m = build_model(case, record=rec, variant={**_overrides(variant, {}), "drogue_lift_scale": scale})
+            err += (solve_static(m, float(m.tow.t[0])).pos[-1, 2] - z_log) ** 2
+        return err
+    res = minimize_scalar(cost, bounds=(0.0, 2.0), method="bounded", options={"xatol": 1e-3})
+    return float(res.x)
+
+
+def evaluate_gates(case: Case, runs: list[Run]) -> list[GateResult]:
+    out = []
+    default_variant = variants_of(case)[0]["id"]
+    for g in case["gates"]:
+        var = g["variant"] or default_variant
+        sel = [r for r in runs if r.variant == var and r.held_out
+               and (not g["logs"] or r.log_id in g["logs"])]
+        vals = [r.metrics.get(g["metric"]) for r in sel]
+        vals = [float(v) for v in vals if isinstance(v, (int, float)) and math.isfinite(v)]
+        kind = "max" if g["max"] is not None else "min"
+        thr = float(g["max"] if kind == "max" else g["min"])
+        if not vals:
+            out.append(GateResult(g["metric"], var, None, thr, kind, False, g["source"],
+                                  [r.log_id for r in sel]))
+            continue
+        vals_t = [abs(v) for v in vals] if g["abs"] else vals
+        value = max(vals_t) if kind == "max" else min(vals_t)
+        passed = value <= thr if kind == "max" else value >= thr
+        out.append(GateResult(g["metric"], var, value, thr, kind, passed, g["source"], [r.log_id for r in sel]))
+    return out
+
+
+def validate_cases(case_paths: list[Path], workers: int | None = None, progress: bool = True) -> list[CaseOutcome]:
+    """Run every case's runs (in parallel over processes) and gate them."""
+    from tqdm import tqdm
+    cases = [load_case(p) for p in case_paths]
+    outcomes: dict[str, CaseOutcome] = {}
+    jobs = []
+    for case in cases:
+        paths = case_log_paths(case)
+        if not paths:
+            outcomes[case.id] = CaseOutcome(case, [], [], error="the case names no logs")
+            continue
+        try:
+            records = {p: read_record(p) for p in paths}
+            tuned = {}
+            for v in variants_of(case):
+                if v.get("tune_drogue_lift_on"):
+                    tr = [r for r in records.values() if r.info.test_id in v["tune_drogue_lift_on"]]
+                    if len(tr) != len(v["tune_drogue_lift_on"]):
+                        raise InputError(f"{case.path}: variant '{v['id']}' tunes on logs "
+                                         f"{v['tune_drogue_lift_on']} not all among the case's logs")
+                    tuned[v["id"]] = tune_drogue_lift(case, v, tr)
+        except (LogError, InputError, StaticSolveError) as exc:
+            outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc))
+            continue
+        outcomes[case.id] = CaseOutcome(case, [], [], tuned=tuned)
+        for v in variants_of(case):
+            for p in paths:
+                jobs.append((case, v, p, tuned))
+    workers = workers or max(1, min(len(jobs), os.cpu_count() or 1))
+    bar = tqdm(total=len(jobs), desc="validate", unit="run", disable=not progress)
+    if workers > 1 and len(jobs) > 1:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = [(job, pool.submit(_one_run, job)) for job in jobs]
+            for job, fut in futures:
+                _collect(outcomes, job, fut.result, bar)
+    else:
+        for job in jobs:
+            _collect(outcomes, job, lambda job=job: _one_run(job), bar)
+    bar.close()
+    for oc in outcomes.values():
+        if oc.error is None:
+            oc.gates = evaluate_gates(oc.case, oc.runs)
+    return [outcomes[c.id] for c in cases]
+
+
+def _collect(outcomes, job, get, bar):
+    case, v, p, _ = job
+    oc = outcomes[case.id]
+    try:
+        oc.runs.append(get())
+    except (LogError, InputError, StaticSolveError, DivergenceError, ValueError) as exc:
+        msg = f"variant {v['id']}, log {Path(p).name}: {exc}"
+        oc.error = msg if oc.error is None else oc.error
+    bar.update(1)
+
+
+def code_version() -> str:
+    try:
+        root = Path(__file__).resolve().parent.parent
+        rev = subprocess.run(["git", "-C", str(root), "describe", "--always", "--dirty"], capture_output=True,
+                             text=True, timeout=5)
+        return rev.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def results_dict(outcomes: list[CaseOutcome]) -> dict:
+    """The machine-readable results (results.json)."""
+    def clean(v):
+        if isinstance(v, float):
+            return v if math.isfinite(v) else None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, (np.floating, np.integer)):
+            return clean(v.item())
+        return v
+    cases = []
+    for oc in outcomes:
+        cases.append({
+            "id": oc.case.id, "title": oc.case.title, "kind": oc.case.kind, "file": oc.case.path,
+            "passed": oc.passed, "error": oc.error, "tuned": oc.tuned,
+            "metrics": {f"{r.variant}/{r.log_id}/{k}": v for r in oc.runs for k, v in r.metrics.items()
+                        if not isinstance(v, (list, dict))},
+            "runs": [{"variant": r.variant, "log": r.log_id, "log_file": r.log_path, "held_out": r.held_out,
+                      "wall_s": r.wall_s, "model_options": r.model_options, "metrics": r.metrics}
+                     for r in oc.runs],
+            "gates": [{"metric": g.metric, "variant": g.variant, "value": g.value, "threshold": g.threshold,
+                       "kind": g.kind, "passed": g.passed, "margin": g.margin, "source": g.source,
+                       "logs": g.logs} for g in oc.gates],
+        })
+    return clean({"passed": all(c["passed"] for c in cases), "code_version": code_version(),
+                  "data_note": "Flight and bench records stand in for non-public program data: they come "
+                               "from an independent higher-fidelity model.",
+                  "cases": cases})
