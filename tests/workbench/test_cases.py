@@ -6,7 +6,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from workbench.cases import build_model, load_case
+from flighttest import read_record
+from workbench.cases import build_model, case_log_paths, load_case
 from workbench.cli import cli
 from workbench.errors import InputError
 from workbench.hardware import load_hardware
@@ -28,7 +29,12 @@ def test_every_case_file_loads_and_builds():
     files = sorted((ROOT / "cases").glob("**/*.toml"))
     assert files
     for f in files:
-        model = build_model(load_case(f), hw)
+        case = load_case(f)
+        logs = case_log_paths(case)
+        for p in logs:
+            assert p.exists(), p
+        record = read_record(logs[0]) if logs else None
+        model = build_model(case, hw, record=record)
         assert model.n_elements >= 4
 
 
