@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from workbench.cli_logs import logs
+from workbench.cli_properties import properties
 from workbench.errors import InputError
 
 
@@ -17,6 +18,7 @@ def cli() -> None:
 
 
 cli.add_command(logs)
+cli.add_command(properties)
 
 
 @cli.command()
