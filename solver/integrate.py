@@ -114,9 +114,7 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
     acc = F / mass[:, None]
     acc[0] = 0.0
     vel_half = vel - 0.5 * dt * acc
-    reel = np.zeros(10)
-    reel[0] = state0.reel_length
-    reel[1] = state0.reel_speed
+    reel = reel_state(model, state0, dt)
     end_reaction = np.zeros(3)
 
     wind_par = model.wind.params
@@ -154,6 +152,20 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
         model=model, t=out_t[:rec], pos=out_pos[:rec], vel=out_vel[:rec], tension=out_tension[:rec],
         reel=out_reel[:rec], end_force=out_end[:rec], energy=out_energy[:rec], n_nodes=out_n[:rec],
         balance=out_mom[:rec], dt=dt, reel_tension_set=reel_tension)
+
+
+def reel_state(model: Model, state0: State, dt: float) -> np.ndarray:
+    """The kernel's `reel` array at the start: length and speed, the bookkeeping
+    sums at zero, and the drive hold-back's lag and ring of past speeds (one per
+    step of dead time) at the initial speed."""
+    r = model.reel
+    ring = max(1, int(round(r.drive_dead_time / dt))) if r.drive_hold > 0 else 0
+    reel = np.zeros(K.REEL_RING + ring)
+    reel[0] = state0.reel_length
+    reel[1] = state0.reel_speed
+    reel[K.REEL_FILT] = state0.reel_speed
+    reel[K.REEL_RING:] = state0.reel_speed
+    return reel
 
 
 def _reel_set_point(model: Model, state0: State, rest: np.ndarray) -> float:

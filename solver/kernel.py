@@ -61,7 +61,16 @@ P_LINK_K = 42      # drogue link axial stiffness, N/m
 P_LINK_C = 43      # drogue link axial damping, N s/m
 P_HOSE_REST_SUM = 44  # sum of rest lengths of hose elements 1..nh-1 (element 0 takes the rest)
 P_EXTRA_MASS0 = 45    # mass lumped on node 1 besides its half elements (normally 0)
-NP = 46
+P_REEL_HOLD = 46      # reel drive hold-back b, N s/m at the drum rim (0: none; `_drive_hold`)
+P_REEL_LAG = 47       # first-order lag of the drive's speed reference, s
+NP = 48
+
+# the drive hold-back's state in the `reel` array (after the 10 bookkeeping slots):
+# the lagged speed reference, the ring position, then a ring of past payout speeds
+# whose length is the dead time in steps (`solver.integrate` sizes it)
+REEL_FILT = 10
+REEL_RING_POS = 11
+REEL_RING = 12
 
 # ---- kernel return codes ----------------------------------------------------------
 OK = 0
@@ -136,6 +145,17 @@ def _theta_over_sin(s, c, th):
     return 1.0 + s * s / 6.0
 
 
+@njit(cache=True, inline="always")
+def _theta_over_sin_direct(s, c):
+    """theta / sin(theta) from s = sin(theta) and c = cos(theta) without a division
+    for the small angles almost every joint has: the series of arcsin(s)/s (the
+    `_angle` series over s, error < 1e-8 below s = 0.1)."""
+    if c > 0.0 and s < 0.1:
+        s2 = s * s
+        return 1.0 + s2 * (1.0 / 6.0 + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0)))
+    return _theta_over_sin(s, c, _angle(s, c))
+
+
 @njit(cache=True)
 def drum_radius_inertia(P, L_out):
     """Drum radius and inertia with (P_HOSE_TOTAL - L_out) of hose wound on it.
@@ -153,6 +173,28 @@ def drum_radius_inertia(P, L_out):
     return R, I
 
 
+@njit(cache=True)
+def _drive_hold(P, reel, dt):
+    """Rim force (N, against payout) of the reel drive's hold-back: b (v - v_f), v
+    the payout speed and v_f the speed the ring of past speeds returns (dead time)
+    through a first-order lag. Advances the ring and the lag by one step."""
+    if reel.shape[0] < REEL_RING:
+        return 0.0      # a caller that keeps no hold-back state gets none
+    nb = reel.shape[0] - REEL_RING
+    v = reel[1]
+    if nb > 0:
+        pos = int(reel[REEL_RING_POS])
+        v_old = reel[REEL_RING + pos]
+        reel[REEL_RING + pos] = v
+        reel[REEL_RING_POS] = (pos + 1) % nb
+    else:
+        v_old = v
+    tau = P[P_REEL_LAG]
+    alpha = 1.0 - math.exp(-dt / tau) if tau > 0.0 else 1.0
+    reel[REEL_FILT] += alpha * (v_old - reel[REEL_FILT])
+    return P[P_REEL_HOLD] * (v - reel[REEL_FILT])
+
+
 # Fast-math without the no-NaN/no-Inf assumptions, so divergence checks still see them.
 FAST = {"contract", "arcp", "nsz", "afn", "reassoc"}
 
@@ -163,8 +205,9 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
     """Forces on every node (gravity, axial, bending, hinge, hose and drogue aero).
 
     `tension[e]` receives the axial force of element e (positive in tension).
-    `work` is scratch of shape (n, 3) at least 4 wide in the first axis' sense:
-    rows hold unit tangents, lengths and angular velocities of the elements.
+    `work` is scratch of shape (6, >= n, 3): unit tangents, angular velocities,
+    inverse lengths (first column), midpoints and wind velocities of the
+    elements, and the drogue's centre of pressure.
     Returns the element count actually used (ne)."""
     ne = n - 1
     g0, g1, g2 = P[P_GX], P[P_GY], P[P_GZ]
@@ -174,7 +217,7 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
         F[i, 2] = mass[i] * g2
     tang = work[0]
     omeg = work[1]
-    length = work[2][:, 0]
+    inv_len = work[2][:, 0]
     mids = work[3]
     # element geometry, axial spring-dampers (Eq. 1), element angular velocities
     for e in range(ne):
@@ -197,7 +240,7 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
         F[e + 1, 1] -= T * ty
         F[e + 1, 2] -= T * tz
         tang[e, 0], tang[e, 1], tang[e, 2] = tx, ty, tz
-        length[e] = l
+        inv_len[e] = inv
         # omega = t x (dv / l): the element's rotation rate about its centre
         omeg[e, 0] = (ty * dvz - tz * dvy) * inv
         omeg[e, 1] = (tz * dvx - tx * dvz) * inv
@@ -219,19 +262,19 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
         nz = ax * by - ay * bx
         s = math.sqrt(nx * nx + ny * ny + nz * nz)
         c = ax * bx + ay * by + az * bz
-        th = _angle(s, c)
         wx = omeg[b, 0] - omeg[a, 0]
         wy = omeg[b, 1] - omeg[a, 1]
         wz = omeg[b, 2] - omeg[a, 2]
         if j < nh or not has_drogue:
             # moment vector on element a: k theta n_hat + c (w_b - w_a)
-            fac = _theta_over_sin(s, c, th)
+            fac = _theta_over_sin_direct(s, c)
             kk = kb[j] * fac
             mx = kk * nx + cb[j] * wx
             my = kk * ny + cb[j] * wy
             mz = kk * nz + cb[j] * wz
         else:
             # ball hinge: free inside the play, penalty spring outside, damping, friction
+            th = _angle(s, c)
             mel = 0.0
             if th > P[P_HINGE_FREE]:
                 mel = P[P_HINGE_KPEN] * (th - P[P_HINGE_FREE])
@@ -247,8 +290,8 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
                     mx += f * wx
                     my += f * wy
                     mz += f * wz
-        _apply_torque(F, a, tang, length, mx, my, mz, 1.0)
-        _apply_torque(F, b, tang, length, mx, my, mz, -1.0)
+        _apply_torque(F, a, tang, inv_len, mx, my, mz, 1.0)
+        _apply_torque(F, b, tang, inv_len, mx, my, mz, -1.0)
 
     if P[P_CLAMP] != 0.0:
         # rotational spring between the fixed clamp direction and element 0
@@ -259,12 +302,12 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
         nz = ax * by - ay * bx
         s = math.sqrt(nx * nx + ny * ny + nz * nz)
         c = ax * bx + ay * by + az * bz
-        fac = _theta_over_sin(s, c, _angle(s, c))
+        fac = _theta_over_sin_direct(s, c)
         kk = P[P_CLAMP_K] * fac
         mx = kk * nx + P[P_CLAMP_C] * omeg[0, 0]
         my = kk * ny + P[P_CLAMP_C] * omeg[0, 1]
         mz = kk * nz + P[P_CLAMP_C] * omeg[0, 2]
-        _apply_torque(F, 0, tang, length, mx, my, mz, -1.0)
+        _apply_torque(F, 0, tang, inv_len, mx, my, mz, -1.0)
 
     # aerodynamics of hose elements (Eq. 3-9) on the relative wind at each element centre
     nhe = nh
@@ -273,6 +316,11 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
     rho = P[P_RHO]
     D = P[P_DIAM]
     scale = P[P_HOSE_DRAG]
+    regimes = P[P_CDN_REGIMES] != 0.0
+    cdn = P[P_CDN]
+    re_per_speed = D / P[P_NU]
+    qn_coef = 0.5 * rho * D * scale
+    qa_coef = 0.5 * rho * P[P_CA0] * math.pi * D * scale
     for e in range(nhe):
         tx, ty, tz = tang[e, 0], tang[e, 1], tang[e, 2]
         rx = wvel[e, 0] - 0.5 * (vel[e, 0] + vel[e + 1, 0])
@@ -284,9 +332,10 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
         nzv = rz - u * tz
         vn = math.sqrt(nxv * nxv + nyv * nyv + nzv * nzv)
         l0 = rest[e]
-        cdn = _cdn(P, vn * D / P[P_NU])
-        qn = 0.5 * rho * cdn * D * l0 * vn * scale
-        qa = 0.5 * rho * P[P_CA0] * math.pi * D * l0 * abs(u) * u * scale
+        if regimes:
+            cdn = _cdn(P, vn * re_per_speed)
+        qn = qn_coef * cdn * l0 * vn
+        qa = qa_coef * l0 * abs(u) * u
         fx = 0.5 * (qn * nxv + qa * tx)
         fy = 0.5 * (qn * nyv + qa * ty)
         fz = 0.5 * (qn * nzv + qa * tz)
@@ -336,14 +385,14 @@ def compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
 
 
 @njit(cache=True, inline="always")
-def _apply_torque(F, e, tang, length, mx, my, mz, sign):
+def _apply_torque(F, e, tang, inv_len, mx, my, mz, sign):
     """Apply torque sign*m to element e as a force couple on its end nodes.
 
     A couple f at the far node and -f at the near one, f = (m x t)/l, has moment
     t x (m x t) = m_perp about the element centre: the axial part of m (torsion,
     neglected in this model) is dropped."""
     tx, ty, tz = tang[e, 0], tang[e, 1], tang[e, 2]
-    inv = sign / length[e]
+    inv = sign * inv_len[e]
     fx = (my * tz - mz * ty) * inv
     fy = (mz * tx - mx * tz) * inv
     fz = (mx * ty - my * tx) * inv
@@ -355,32 +404,104 @@ def _apply_torque(F, e, tang, length, mx, my, mz, sign):
     F[e, 2] -= fz
 
 
+@njit(cache=True, inline="always")
+def _joint_angle(ax, ay, az, bx, by, bz):
+    """Angle between unit vectors a and b, atan2(|a x b|, a.b)."""
+    nx = ay * bz - az * by
+    ny = az * bx - ax * bz
+    nz = ax * by - ay * bx
+    c = min(1.0, max(-1.0, ax * bx + ay * by + az * bz))
+    return math.atan2(math.sqrt(nx * nx + ny * ny + nz * nz), c)
+
+
 @njit(cache=True)
 def potential_energy(P, n, nh, pos, rest, ka, kb):
-    """Elastic (axial, bending, hinge penalty, clamp) plus gravity energy relative to z=0."""
+    """Elastic (axial, bending, hinge penalty, clamp) plus gravity energy relative to z=0.
+
+    Scalar code throughout: the kernel calls this at every record, and array
+    temporaries here cost more than the time step itself."""
     E = 0.0
-    tang = np.empty((n, 3))
-    for e in range(n - 1):
-        d = pos[e + 1] - pos[e]
-        l = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        tang[e] = d / l
-        E += 0.5 * ka[e] * (l - rest[e]) ** 2
     has_drogue = P[P_HAS_DROGUE] != 0.0
     last = nh if has_drogue else nh - 1
-    for j in range(1, last + 1):
-        c = min(1.0, max(-1.0, tang[j - 1] @ tang[j]))
-        cr = np.cross(tang[j - 1], tang[j])
-        th = math.atan2(math.sqrt(cr @ cr), c)
-        if j < nh or not has_drogue:
-            E += 0.5 * kb[j] * th * th
-        elif th > P[P_HINGE_FREE]:
-            E += 0.5 * P[P_HINGE_KPEN] * (th - P[P_HINGE_FREE]) ** 2
-    if P[P_CLAMP] != 0.0:
-        cd = np.array([P[P_CLAMP_DX], P[P_CLAMP_DY], P[P_CLAMP_DZ]])
-        cr = np.cross(cd, tang[0])
-        th = math.atan2(math.sqrt(cr @ cr), cd @ tang[0])
-        E += 0.5 * P[P_CLAMP_K] * th * th
+    px = py = pz = 0.0      # unit tangent of the previous element
+    for e in range(n - 1):
+        dx = pos[e + 1, 0] - pos[e, 0]
+        dy = pos[e + 1, 1] - pos[e, 1]
+        dz = pos[e + 1, 2] - pos[e, 2]
+        l = math.sqrt(dx * dx + dy * dy + dz * dz)
+        tx, ty, tz = dx / l, dy / l, dz / l
+        E += 0.5 * ka[e] * (l - rest[e]) ** 2
+        j = e
+        if 1 <= j <= last:
+            th = _joint_angle(px, py, pz, tx, ty, tz)
+            if j < nh or not has_drogue:
+                E += 0.5 * kb[j] * th * th
+            elif th > P[P_HINGE_FREE]:
+                E += 0.5 * P[P_HINGE_KPEN] * (th - P[P_HINGE_FREE]) ** 2
+        if e == 0 and P[P_CLAMP] != 0.0:
+            th = _joint_angle(P[P_CLAMP_DX], P[P_CLAMP_DY], P[P_CLAMP_DZ], tx, ty, tz)
+            E += 0.5 * P[P_CLAMP_K] * th * th
+        px, py, pz = tx, ty, tz
     return E
+
+
+@njit(cache=True, fastmath=FAST)
+def _implicit_axial_damping(dt, n, ca, tang, vel_half, F, inv_m, v_star, tension, tri):
+    """Add each element's axial damping force D_e (tension, along its unit tangent t_e)
+    taken at the mean of the old and new half-step velocities, to F and `tension`.
+
+    With v* the new velocity under the other forces (given in v_star for the
+    prescribed nodes, whose inv_m is 0), the new velocity is
+    v_i = v*_i + dt inv_m_i (D_i t_i - D_{i-1} t_{i-1}), and
+    D_e = c_e t_e . (v_old,e+1 + v_e+1 - v_old,e - v_e) / 2
+    is a symmetric, strictly diagonally dominant tridiagonal system in D, solved
+    by the Thomas algorithm. Trapezoidal damping leaves central differences stable
+    up to the undamped limit dt = 2 / omega_max whatever the damping."""
+    ne = n - 1
+    for i in range(n):
+        if inv_m[i] != 0.0:
+            for c in range(3):
+                v_star[i, c] = vel_half[i, c] + dt * inv_m[i] * F[i, c]
+    # one pass assembles row e and eliminates it against row e - 1 (Thomas); `inv_d`
+    # keeps the reciprocal pivots, `up` the super-diagonal, `rhs` the reduced right side
+    inv_d = tri[0]
+    up = tri[2]
+    rhs = tri[3]
+    up_prev = 0.0
+    rhs_prev = 0.0
+    inv_prev = 0.0
+    for e in range(ne):
+        a = 0.5 * ca[e] * dt
+        tx, ty, tz = tang[e, 0], tang[e, 1], tang[e, 2]
+        dvx = vel_half[e + 1, 0] - vel_half[e, 0] + v_star[e + 1, 0] - v_star[e, 0]
+        dvy = vel_half[e + 1, 1] - vel_half[e, 1] + v_star[e + 1, 1] - v_star[e, 1]
+        dvz = vel_half[e + 1, 2] - vel_half[e, 2] + v_star[e + 1, 2] - v_star[e, 2]
+        r = 0.5 * ca[e] * (tx * dvx + ty * dvy + tz * dvz)
+        d = 1.0 + a * (inv_m[e] + inv_m[e + 1])
+        u = 0.0
+        if e < ne - 1:
+            u = -a * inv_m[e + 1] * (tx * tang[e + 1, 0] + ty * tang[e + 1, 1] + tz * tang[e + 1, 2])
+        if e > 0:
+            low = -a * inv_m[e] * (tx * tang[e - 1, 0] + ty * tang[e - 1, 1] + tz * tang[e - 1, 2])
+            w = low * inv_prev
+            d -= w * up_prev
+            r -= w * rhs_prev
+        inv_prev = 1.0 / d
+        up_prev = u
+        rhs_prev = r
+        inv_d[e] = inv_prev
+        up[e] = u
+        rhs[e] = r
+    # back substitution, applying each D_e as it is found
+    D_next = 0.0
+    for e in range(ne - 1, -1, -1):
+        D = (rhs[e] - up[e] * D_next) * inv_d[e]
+        D_next = D
+        tension[e] += D
+        for c in range(3):
+            f = D * tang[e, c]
+            F[e, c] += f
+            F[e + 1, c] -= f
 
 
 @njit(cache=True, fastmath=FAST)
@@ -390,9 +511,15 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
               out_reel, out_end_force, out_energy, out_mom, rec_start, extra_work, end_reaction):
     """Advance the leapfrog (velocity at half steps) up to `nsteps` steps.
 
-    Velocity-dependent forces (damping, aerodynamics) use the velocity
-    extrapolated to the full step, v(t) ~ v(t-dt/2) + a(t-dt) dt/2, which keeps the
-    scheme second order for weak damping and exactly symplectic without it.
+    Velocity-dependent forces (bending and hinge damping, aerodynamics) use the
+    velocity extrapolated to the full step, v(t) ~ v(t-dt/2) + a(t-dt) dt/2, which
+    keeps the scheme second order for weak damping and exactly symplectic without
+    it. The axial damping of the elements (and of the drogue link) is the one
+    damping stiff enough to cut the stable step (by a third for a fuelled hose at
+    300 N s); it acts instead on the mean of the old and new half-step velocities
+    (trapezoidal, implicit), which costs one scalar tridiagonal solve along the
+    chain (see `_implicit_axial_damping`) and leaves the step limited by the
+    undamped axial mode alone.
 
     reel = [L_out, Ldot, exit tension, cumulative mass taken in, cumulative momentum
     carried across the reel exit (x, y, z), cumulative impulse of the hose on the tow
@@ -415,6 +542,14 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
     has_drogue = P[P_HAS_DROGUE] != 0.0
     last = n - 1
     mu = P[P_MU]
+    # axial damping is applied implicitly below, so the force routine sees none
+    ca_explicit = np.zeros_like(ca)
+    inv_m = np.empty(n)
+    inv_m[0] = 0.0
+    for i in range(1, n):
+        inv_m[i] = 1.0 / mass[i]
+    v_star = np.empty((n, 3))
+    tri = np.empty((4, n))
     for k in range(nsteps):
         t = t0 + k * dt
         # prescribed tow point (node 0): position and velocity at t and t+dt
@@ -469,8 +604,19 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
         if end_active:
             for c in range(3):
                 vel[last, c] = end_now[3 + c]
-        compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca, kb, cb, wind_par,
+        compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca_explicit, kb, cb, wind_par,
                        F, tension, work)
+        # the prescribed nodes' new half-step velocities, then the axial damping
+        for c in range(3):
+            v_star[0, c] = (tow_next[c] - tow_now[c]) / dt
+        inv_m[1] = 1.0 / mass[1]      # the reel-exit node's mass follows the reel
+        inv_m[last] = 1.0 / mass[last]
+        if end_active:
+            _interp_table(end_t0, end_dt, end_tab, t + dt, end_next)
+            inv_m[last] = 0.0
+            for c in range(3):
+                v_star[last, c] = (end_next[c] - end_now[c]) / dt
+        _implicit_axial_damping(dt, n, ca, work[0], vel_half, F, inv_m, v_star, tension, tri)
         # reel drum dynamics (Eq. 12) with the tension of the reel-exit element
         if P[P_REEL_MODE] == 2.0:
             R, I = drum_radius_inertia(P, L)
@@ -480,8 +626,13 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
                 torque = P[P_TORQUE] * R
             # payout angle phi, L' = R phi'; I phi'' = T_hose R - torque
             omega = reel[1] / R
-            omega += dt * (tension[0] * R - torque) / I
+            hold = _drive_hold(P, reel, dt) if P[P_REEL_HOLD] > 0.0 else 0.0
+            omega += dt * ((tension[0] - hold) * R - torque) / I
             L_new = L + dt * R * omega
+            if L_new > P[P_HOSE_TOTAL]:
+                # the whole hose is out: the drum stops against its end stop
+                L_new = P[P_HOSE_TOTAL]
+                omega = 0.0
             reel[1] = R * omega
             reel[0] = L_new
         reel[2] = tension[0]
@@ -491,7 +642,7 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
             reel[7 + c] += dt * F[0, c]
         # kick
         for i in range(1, n):
-            inv = 1.0 / mass[i]
+            inv = 1.0 / mass[i] if i == last else inv_m[i]
             for c in range(3):
                 a = F[i, c] * inv
                 acc_prev[i, c] = a
@@ -499,11 +650,13 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
         for c in range(3):
             vel_half[0, c] = (tow_next[c] - tow_now[c]) / dt
         if end_active:
-            _interp_table(end_t0, end_dt, end_tab, t + dt, end_next)
             for c in range(3):
                 v_new = (end_next[c] - end_now[c]) / dt
                 # constraint reaction: what the prescribed motion needs beyond the forces
                 end_reaction[c] = mass[last] * (v_new - vel_half[last, c]) / dt
+                if end_reaction.shape[0] >= 6:
+                    # a caller that gives room gets the impulse too (frame means)
+                    end_reaction[3 + c] += dt * end_reaction[c]
                 acc_prev[last, c] += end_reaction[c] / mass[last]
                 vel_half[last, c] = v_new
         # record at time t with the synchronised velocity

@@ -215,22 +215,49 @@ class Model:
         P[K.P_HOSE_TOTAL] = h.stowed_length
         P[K.P_TORQUE_LAW] = 0.0 if r.torque_law == "constant_torque" else 1.0
         P[K.P_TORQUE] = r.torque if r.torque_law == "constant_torque" else reel_tension
+        P[K.P_REEL_HOLD] = r.drive_hold
+        P[K.P_REEL_LAG] = r.drive_lag
         P[K.P_VMAX] = 5.0 * self.wind.mean_speed + 100.0
         P[K.P_NE_MIN] = 2
         P[K.P_HOSE_REST_SUM] = float(np.sum(rest[1:n_hose]))
         return P
 
-    def stable_step(self) -> float:
+    # ---- host-simulator step API ---------------------------------------------------
+    def stepper(self, state0=None, t0: Optional[float] = None):
+        """A fresh `solver.stepper.Stepper` on this model (static trail unless `state0`)."""
+        from solver.stepper import Stepper
+        return Stepper(self, state0, t0)
+
+    def step(self, dt: float, tow_point_state, probe_state=None):
+        """Advance one host frame: tow point (and probe, while the drogue is on it)
+        position and velocity at the end of the frame in, the hose, drogue and loads
+        at the end of the frame out (`solver.stepper.StepOutput`).
+
+        Delegates to a stepper this model builds at the first call, from its
+        static trail; `stepper()` gives an independent one (or a restart)."""
+        st = self.__dict__.get("_stepper")
+        if st is None:
+            st = self.__dict__["_stepper"] = self.stepper()
+        return st.step(dt, tow_point_state, probe_state)
+
+    def stable_step(self, end_held: Optional[bool] = None) -> float:
         """A leapfrog step inside the stability limit of the stiffest mode.
 
         The limit of each mode comes from `leapfrog_limit` (the kernel's own
         scheme on x'' = -omega^2 x - gamma x'); the step keeps 80 % of the
         tightest. omega and gamma come from the axial chain's highest mode
-        (top eigenvalues of the mass-normalised tridiagonal stiffness and
-        damping of the straight chain, drogue link included), the zig-zag bending
-        mode 16 k_b/(m l^2), the hinge stop and the clamp, whichever is tightest.
+        (top eigenvalue of the mass-normalised tridiagonal stiffness of the
+        straight chain, drogue link included; the kernel's axial damping is
+        implicit and does not limit the step), the zig-zag bending mode
+        16 k_b/(m l^2), the hinge stop and the clamp, whichever is tightest.
         With a reel the exit element may shrink to REMESH_MIN element lengths
-        (stiffer, shorter levers)."""
+        (stiffer, shorter levers). With the end held (`end_held`, by default
+        whether the model has an end constraint; a host's probe can hold it at
+        any time) the chain ends at a fixed node, and the hinge stop swings the
+        hose end about the held drogue: a short drogue link makes that mode far
+        stiffer than the free one."""
+        if end_held is None:
+            end_held = self.end is not None
         l = self.element_length
         n_h = self.n_elements
         rest = np.full(n_h, l)
@@ -239,7 +266,9 @@ class Model:
             rest[0] = K.REMESH_MIN * l
             shrink = K.REMESH_MIN
         n, mass, rest_all, ka, ca, kb, cb = self.build_arrays(n_h, rest)
-        m = mass[1:]
+        m = mass[1:].copy()
+        if end_held:
+            m[-1] = 1e30     # a node that does not move
 
         def top_eig(k):
             diag = (k + np.append(k[1:], 0.0)) / m
@@ -247,7 +276,7 @@ class Model:
             return float(eigvalsh_tridiagonal(diag, off, select="i",
                                               select_range=(len(diag) - 1, len(diag) - 1))[0])
 
-        modes = [(math.sqrt(top_eig(ka)), top_eig(ca))]      # (omega, damping rate 2 zeta omega)
+        modes = [(math.sqrt(top_eig(ka)), 0.0)]      # (omega, damping rate 2 zeta omega)
         m_node = self.hose.mass_per_length * l
         kb_max = float(np.max(kb)) if n_h > 1 else 0.0
         cb_max = float(np.max(cb)) if n_h > 1 else 0.0
@@ -257,6 +286,10 @@ class Model:
             d = self.drogue
             inv_i = 1 / (d.mass * d.link_length ** 2) + 1 / (mass[n_h] * l * l)
             modes.append((math.sqrt(d.hinge_stop_stiffness * inv_i), d.hinge_damping * inv_i))
+            if end_held:
+                # the hose end moving by x turns the hinge by x (1/link + 1/l)
+                inv_i = (1 / d.link_length + 1 / l) ** 2 / mass[n_h]
+                modes.append((math.sqrt(d.hinge_stop_stiffness * inv_i), d.hinge_damping * inv_i))
         if self.clamp is not None:
             ik = 1 / (0.5 * m_node * (0.5 * l) ** 2)
             modes.append((math.sqrt(2 * kb_max * self.clamp.stiffness_factor * ik),

@@ -9,6 +9,13 @@ Modes:
   (T_reel = T_set R, which holds the tension at the tanker at T_set in the steady
   state; with T_set left unset the model uses the initial steady tension, the
   paper's idealised reel).
+  A drive hold-back (`drive_hold` > 0, the `reel_lag` effect) adds the force
+  b (L' - L'_f) at the drum rim against the payout speed L', where L'_f is L'
+  seen through the drive controller's dead time and first-order lag: the drive
+  holds the drum at the speed it had until its controller responds, so the
+  take-up follows a tension change late. The impedance b (1 - H) is passive for
+  any dead time and lag (|H| <= 1), so it cannot destabilise the hose's stiff
+  axial mode the way a delayed tension fed back to the drum does.
 
 Hose paid out or taken in enters or leaves through the reel-exit element, whose
 rest length changes; when it grows past 1.75 element lengths a node is inserted,
@@ -37,6 +44,9 @@ class ReelProperties:
     torque_law: str = "constant_tension"
     torque: Optional[float] = None              # N m for constant_torque
     tension: Optional[float] = None             # N for constant_tension; None: initial steady value
+    drive_hold: float = 0.0                     # N s/m at the drum rim; 0: no hold-back
+    drive_dead_time: float = 0.0                # s
+    drive_lag: float = 0.0                      # s, first-order time constant
 
     def __post_init__(self):
         if self.mode not in MODES:
@@ -61,3 +71,9 @@ class ReelProperties:
                     raise ValueError(f"reel {name} must be positive, got {v!r}")
             if self.torque_law == "constant_torque" and self.torque is None:
                 raise ValueError("reel torque_law 'constant_torque' needs a torque")
+        for name in ("drive_hold", "drive_dead_time", "drive_lag"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"reel {name} must be a finite number >= 0, got {v!r}")
+        if self.drive_hold > 0 and self.mode != "drum":
+            raise ValueError("reel drive_hold needs the drum mode")

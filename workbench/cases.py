@@ -14,7 +14,11 @@ Layout (every table but [hardware] and [condition] is optional):
                  oat_F (outside air temperature; default the ISA standard day)
     [model]      n_elements, drogue_lift_scale, drogue_drag_scale, reel ("locked" | "drum"),
                  reel_torque_law, hinge_damping_N_m_s, hinge_friction_N_m
-    [model.structure]  EI_N_m2, EA_N, bending_damping_N_m2_s, axial_damping_N_s
+    [model.structure]  source = "table" (default): the bench property tables
+                 (cases/properties) at the hose temperature (temperature_F, else the
+                 log's or the condition's outside air temperature); any other source
+                 text: the constants given, EI_N_m2, EA_N, bending_damping_N_m2_s,
+                 axial_damping_N_s
     [tow_motion] kind ("none" | "sine_doublet"), amplitude_m, period_s, start_s
     [run]        duration_s, record_dt_s
     [effects.NAME]  unmodelled effects by name with their parameters (`solver.effects`;
@@ -104,11 +108,13 @@ SCHEMA = {
         "hinge_friction_N_m": Field(NUM, 0.0, _nonneg),
     },
     "model.structure": {
-        "EI_N_m2": Field(NUM, required=True, check=_positive),
-        "EA_N": Field(NUM, required=True, check=_positive),
+        "source": Field(str, "table"),
+        "EI_N_m2": Field(NUM, None, _positive),
+        "EA_N": Field(NUM, None, _positive),
         "bending_damping_N_m2_s": Field(NUM, 0.0, _nonneg),
         "axial_damping_N_s": Field(NUM, 0.0, _nonneg),
-        "source": Field(str, "nominal"),
+        "temperature_F": Field(NUM, None),
+        "allow_extrapolation": Field(bool, False),
     },
     "tow_motion": {
         "kind": Field(str, "none", _one_of("none", "sine_doublet", "from_log")),
@@ -236,7 +242,11 @@ def load_case(path: str | Path) -> Case:
             if name != "model.structure":
                 tables[name] = _check_table(str(p), name, {})
     if "model.structure" not in tables:
-        raise InputError(f"{p}: missing table [model.structure] (hose EI_N_m2, EA_N and damping)")
+        tables["model.structure"] = _check_table(str(p), "model.structure", {})
+    st = tables["model.structure"]
+    if st["source"] != "table" and (st["EI_N_m2"] is None or st["EA_N"] is None):
+        raise InputError(f"{p}: [model.structure] source '{st['source']}' is not 'table', so EI_N_m2 and "
+                         f"EA_N must be given")
     top = tables[""]
     return Case(str(p), top["id"], top["kind"], top["title"], tables)
 
@@ -249,10 +259,21 @@ def _sheet(case: Case, hw: Hardware, kind: str, ident: str):
 
 
 def case_log_paths(case: Case) -> list[Path]:
-    """The case's logs: relative to the project's log folder unless absolute."""
+    """The case's logs: relative to the project's log folder unless absolute;
+    glob patterns (RD-KC130-B-*.mcap) expand to the files they match."""
     from workbench.hardware import DEFAULT_PATH
     base = DEFAULT_PATH.parent
-    return [Path(p) if Path(p).is_absolute() else base / p for p in case[""]["logs"]]
+    out = []
+    for p in case[""]["logs"]:
+        q = Path(p) if Path(p).is_absolute() else base / p
+        if any(ch in p for ch in "*?["):
+            hits = sorted(q.parent.glob(q.name))
+            if not hits:
+                raise InputError(f"{case.path}: logs pattern '{p}' matches no file")
+            out += hits
+        else:
+            out.append(q)
+    return out
 
 
 def build_model(case: Case, hardware: Hardware | None = None, record=None,
@@ -297,12 +318,11 @@ def build_model(case: Case, hardware: Hardware | None = None, record=None,
         # the hose out at the start of the log is the hose the model trails
         length = float(L_pay[0])
         reel = ReelProperties(mode="prescribed", payout_t=t_pay, payout_length=L_pay)
+    structure = _structure(case, h["hose"], record)
     hose = HoseProperties(
         length=length, outer_diameter=hs.outer_diameter, inner_diameter=hs.inner_diameter,
-        dry_mass_per_length=hs.dry_mass_per_length, EI=float(st["EI_N_m2"]), EA=float(st["EA_N"]),
-        bending_damping=float(st["bending_damping_N_m2_s"]), axial_damping=float(st["axial_damping_N_s"]),
-        fuel_density=hw.fuel_density, fuel_full=fuel_full,
-        total_length=max(hs.length, length) if mod["reel"] != "locked" else None)
+        dry_mass_per_length=hs.dry_mass_per_length, fuel_density=hw.fuel_density, fuel_full=fuel_full,
+        total_length=max(hs.length, length) if mod["reel"] != "locked" else None, **structure)
     drogue = None
     if h["drogue"]:
         ds = _sheet(case, hw, "drogue", h["drogue"])
@@ -329,6 +349,49 @@ def build_model(case: Case, hardware: Hardware | None = None, record=None,
     from workbench.effects_case import apply_case_effects
     alt = fc["altitude_m"] if cond["from_log"] else cond["altitude_ft"] * FT
     return apply_case_effects(case, model, hw, record, tas, density, alt)
+
+
+def hose_temperature_F(case: Case, record=None) -> float | None:
+    """The hose's temperature for its properties: given in [model.structure], else
+    the outside air temperature of the log or of the condition."""
+    st = case["model.structure"]
+    if st["temperature_F"] is not None:
+        return float(st["temperature_F"])
+    if record is not None and case["condition"]["from_log"] and record.info.oat_K is not None:
+        return (record.info.oat_K - 273.15) * 9.0 / 5.0 + 32.0
+    return case["condition"]["oat_F"]
+
+
+def _structure(case: Case, hose_id: str, record) -> dict:
+    """HoseProperties' structural arguments: the constants given, or the bench
+    property table at the hose temperature. Elements longer than the table's
+    longest tuned element take the continuum values (k = EI/l from the
+    best-resolved element): the tuned corrections of coarse elements belong to
+    the bench cantilever's mode shape, not to a hose in flight."""
+    st = case["model.structure"]
+    if st["source"] != "table":
+        return {"EI": float(st["EI_N_m2"]), "EA": float(st["EA_N"]),
+                "bending_damping": float(st["bending_damping_N_m2_s"]),
+                "axial_damping": float(st["axial_damping_N_s"])}
+    from workbench.properties import load_library
+    temp = hose_temperature_F(case, record)
+    if temp is None:
+        raise InputError(f"{case.path}: [model.structure] uses the property table but no hose temperature "
+                         f"is known (give temperature_F, [condition] oat_F, or a log with oat_F)")
+    try:
+        table = load_library().table(hose_id)
+        cont = table.continuum(temp, allow_extrapolation=st["allow_extrapolation"])
+        per_element = table.element_constants(temp, allow_extrapolation=st["allow_extrapolation"])
+    except (ValueError, KeyError) as exc:
+        raise InputError(f"{case.path}: [model.structure] property table: {exc}") from None
+    l_max = float(max(table.element_lengths))
+
+    def constants(l, per_element=per_element, cont=cont, l_max=l_max):
+        if l <= l_max:
+            return per_element(l)
+        return (cont["EA"] / l, cont["axial_damping"] / l, cont["EI"] / l, cont["bending_damping"] / l)
+    return {"EI": cont["EI"], "EA": cont["EA"], "bending_damping": cont["bending_damping"],
+            "axial_damping": cont["axial_damping"], "element_constants": constants}
 
 
 def _tow_motion(case: Case) -> Trajectory:
