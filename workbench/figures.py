@@ -154,7 +154,43 @@ def engagement_figures(outcome, out_dir: Path) -> list[Path]:
     return paths
 
 
-FIGURES = {"pitch_doublet": doublet_figures, "trail": trail_figures, "engagement": engagement_figures}
+def ringdown_figures(outcome, out_dir: Path) -> list[Path]:
+    """Paper Fig. 6 and 7 for the case's hose from the property document, the
+    constants against element length, and Fig. 9: measured against simulated
+    frequency squared and damping at each tested temperature."""
+    from workbench import properties_report as pr
+    from workbench.properties import read_properties
+    doc = read_properties()
+    hose = outcome.case["hardware"]["hose"]
+    paths = []
+    for name, fn in (("fig6-measured", pr.figure_measured), ("fig7-constants", pr.figure_element_constants),
+                     ("constants-vs-length", pr.figure_element_length)):
+        fig = fn(doc, hose)
+        path = out_dir / f"{outcome.case.id}-{name}.png"
+        fig.tight_layout()
+        fig.savefig(path, dpi=80)
+        paths.append(path)
+    bend = sorted((r for r in outcome.runs if r.metrics["test"] == "bending"),
+                  key=lambda r: r.metrics["temperature_F"])
+    if bend:
+        T = [r.metrics["temperature_F"] for r in bend]
+        fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
+        axes[0].plot(T, [r.metrics["frequency_measured_hz"] ** 2 for r in bend], "o", mfc="none", label="test")
+        axes[0].plot(T, [r.metrics["frequency_simulated_hz"] ** 2 for r in bend], "x", label="8-element model")
+        axes[0].set_ylabel("frequency squared (Hz^2)")
+        axes[1].plot(T, [r.metrics["damping_measured"] for r in bend], "o", mfc="none", label="test")
+        axes[1].plot(T, [r.metrics["damping_simulated"] for r in bend], "x", label="8-element model")
+        axes[1].set_ylabel("damping ratio")
+        for ax in axes:
+            ax.set_xlabel("hose temperature (F)")
+            ax.legend(fontsize=7)
+        fig.suptitle(f"{hose}: verification (Fig. 9)")
+        paths.append(_save(fig, out_dir / f"{outcome.case.id}-fig9.png"))
+    return paths
+
+
+FIGURES = {"pitch_doublet": doublet_figures, "trail": trail_figures, "engagement": engagement_figures,
+           "ringdown_bending": ringdown_figures, "ringdown_axial": ringdown_figures}
 
 
 def case_figures(outcome, out_dir: Path) -> list[Path]:

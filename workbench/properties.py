@@ -796,10 +796,39 @@ def derive_hose(source: PropertyTable, source_sheet: HoseSheet, sheet: HoseSheet
     }
 
 
+def verify_group(table: PropertyTable, rig: BenchRig, group: dict, n_elements: int,
+                 allow_extrapolation: bool = False) -> dict:
+    """One measured group (a setpoint's repetitions) against the N-element rig
+    with the table's constants at the group's mean temperature, simulated in
+    time and measured like the bench records (paper Fig. 9)."""
+    T = group["temperature_F"]["mean"]
+    f, z = group["frequency_hz"]["mean"], group["damping_ratio"]["mean"]
+    consts = table.element_constants(T, allow_extrapolation=allow_extrapolation)
+    f_lin, z_lin, _, _ = rig_mode(rig, n_elements, consts, T)
+    sim = simulate_ringdown(rig, n_elements, consts, T, group["amplitude_at_release_m"], f, z)
+    ms = measure_ringdown(sim)
+    ef = ms["frequency_hz"] / f - 1.0
+    ez = ms["damping_ratio"] / z - 1.0
+    return {
+        "hose": table.hose, "test": "axial" if rig.hanging else "bending",
+        "temperature_F": T, "n_elements": n_elements,
+        "element_length_m": rig.length / n_elements,
+        "frequency_measured_hz": f, "frequency_measured_std_hz": group["frequency_hz"]["std"],
+        "frequency_simulated_hz": ms["frequency_hz"], "frequency_error_pct": 100.0 * ef,
+        "damping_measured": z, "damping_measured_std": group["damping_ratio"]["std"],
+        "damping_simulated": ms["damping_ratio"], "damping_error_pct": 100.0 * ez,
+        "frequency_linear_hz": f_lin, "damping_linear": z_lin,
+        "within_tolerance": bool(abs(ef) <= FREQUENCY_TOLERANCE and abs(ez) <= DAMPING_TOLERANCE),
+        "constants_extrapolated_in_temperature": bool(allow_extrapolation),
+        "simulated_decay_window_s": ms["decay_window_s"],
+        "simulated_half_cycles": ms["half_cycles"],
+        "records": group["records"],
+    }
+
+
 def verify_hose(table: PropertyTable, prov: dict, sheet: HoseSheet, n_elements: int,
                 progress=None) -> list[dict]:
-    """Paper Fig. 9: the N-element rig with the table's constants, simulated in
-    time and measured like the bench records, at every tested temperature."""
+    """Paper Fig. 9 at every tested temperature of the hose (see `verify_group`)."""
     rows = []
     rig_b = BenchRig.from_sheet(sheet, prov["bench_rig"]["bending"]["section_length_m"])
     jobs = [(rig_b, g, False) for g in prov["bending_groups"]]
@@ -807,31 +836,11 @@ def verify_hose(table: PropertyTable, prov: dict, sheet: HoseSheet, n_elements: 
     rig_a = BenchRig.from_sheet(sheet, ax["section_length_m"], hanging=True, tip_mass=ax["tip_mass_kg"])
     jobs.append((rig_a, ax, prov["room_temperature_outside_bending_range"]))
     for rig, g, extrap in jobs:
-        T = g["temperature_F"]["mean"]
-        f, z = g["frequency_hz"]["mean"], g["damping_ratio"]["mean"]
-        consts = table.element_constants(T, allow_extrapolation=extrap)
-        f_lin, z_lin, _, _ = rig_mode(rig, n_elements, consts, T)
-        sim = simulate_ringdown(rig, n_elements, consts, T, g["amplitude_at_release_m"], f, z)
-        ms = measure_ringdown(sim)
-        ef = ms["frequency_hz"] / f - 1.0
-        ez = ms["damping_ratio"] / z - 1.0
-        rows.append({
-            "hose": table.hose, "test": "axial" if rig.hanging else "bending",
-            "temperature_F": T, "n_elements": n_elements,
-            "element_length_m": rig.length / n_elements,
-            "frequency_measured_hz": f, "frequency_measured_std_hz": g["frequency_hz"]["std"],
-            "frequency_simulated_hz": ms["frequency_hz"], "frequency_error_pct": 100.0 * ef,
-            "damping_measured": z, "damping_measured_std": g["damping_ratio"]["std"],
-            "damping_simulated": ms["damping_ratio"], "damping_error_pct": 100.0 * ez,
-            "frequency_linear_hz": f_lin, "damping_linear": z_lin,
-            "within_tolerance": bool(abs(ef) <= FREQUENCY_TOLERANCE and abs(ez) <= DAMPING_TOLERANCE),
-            "constants_extrapolated_in_temperature": bool(extrap),
-            "simulated_decay_window_s": ms["decay_window_s"],
-            "simulated_half_cycles": ms["half_cycles"],
-        })
+        rows.append(verify_group(table, rig, g, n_elements, extrap))
         if progress:
-            progress(f"verified {table.hose} {rows[-1]['test']} at {T:.1f} F, N={n_elements}: "
-                     f"frequency {100 * ef:+.3f} %, damping {100 * ez:+.3f} %")
+            r = rows[-1]
+            progress(f"verified {table.hose} {r['test']} at {r['temperature_F']:.1f} F, N={n_elements}: "
+                     f"frequency {r['frequency_error_pct']:+.3f} %, damping {r['damping_error_pct']:+.3f} %")
     return rows
 
 

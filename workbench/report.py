@@ -24,6 +24,11 @@ TABLE_METRICS = {
     "trail": [("drogue_steady_x_m_log", "log x (m)"), ("drogue_steady_x_m_sim", "model x (m)"),
               ("drogue_steady_z_m_log", "log z (m)"), ("drogue_steady_z_m_sim", "model z (m)"),
               ("trail_shape_rms_error_m", "shape RMS (m)"), ("trail_shape_max_error_m", "shape max (m)")],
+    "ringdown_bending": [("test", "test"), ("temperature_F", "T (F)"), ("n_elements", "N"),
+                         ("frequency_measured_hz", "test f (Hz)"), ("frequency_simulated_hz", "model f (Hz)"),
+                         ("frequency_error_pct", "f error (%)"), ("damping_measured", "test zeta"),
+                         ("damping_simulated", "model zeta"), ("damping_error_pct", "zeta error (%)"),
+                         ("constants_extrapolated_in_temperature", "extrapolated")],
     "engagement": [("shape_rms_error_pre_contact_m", "shape RMS pre-contact (m)"),
                    ("shape_rms_error_engaged_m", "shape RMS engaged (m)"),
                    ("shape_rms_error_at_contact_m", "at contact"), ("shape_rms_error_at_slack_m", "slack"),
@@ -54,11 +59,30 @@ def fmt(v) -> str:
 
 
 def _tables(case_json: dict) -> list[dict]:
-    cols = TABLE_METRICS.get(case_json["kind"], [])
+    cols = TABLE_METRICS.get(case_json["kind"], TABLE_METRICS.get("ringdown_bending")
+                             if case_json["kind"].startswith("ringdown") else [])
     if not cols or not case_json["runs"]:
         return []
     rows = [[r["variant"], r["log"]] + [r["metrics"].get(k) for k, _ in cols] for r in case_json["runs"]]
     return [{"title": "Results per run", "header": ["variant", "log"] + [h for _, h in cols], "rows": rows}]
+
+
+def properties_section() -> dict:
+    """What the hose property tables rest on: per hose, measured or derived,
+    and every assumption no test checked (from the property document)."""
+    from workbench.properties import read_properties
+    doc = read_properties()
+    parts = ["<p>Structural constants of every case marked <code>source = \"table\"</code> come from "
+             "<code>cases/properties/hose_properties.json</code>, built by <code>workbench properties "
+             f"build</code> (code {escape(str(doc['code_version'].get('git', '')))}).</p><ul>"]
+    for hose, prov in sorted(doc["hoses"].items()):
+        status = prov["status"]
+        flag = (f"<b>DERIVED</b> from {escape(prov['derived_from'])} (never bench tested)"
+                if status == "derived" else "measured on the bench")
+        items = "".join(f"<li>{escape(a)}</li>" for a in prov.get("assumptions", []))
+        parts.append(f"<li><b>{escape(hose)}</b>: {flag}<ul>{items}</ul></li>")
+    parts.append("</ul>")
+    return {"title": "Hose properties and their assumptions", "html": "".join(parts)}
 
 
 def write_report(outcomes, results: dict, out_dir: Path, wall_s: float, extra_sections=()) -> dict[str, Path]:
@@ -78,7 +102,7 @@ def write_report(outcomes, results: dict, out_dir: Path, wall_s: float, extra_se
         "code_version": results.get("code_version", "unknown"), "data_note": results.get("data_note", ""),
         "passed": results["passed"], "n_cases": len(cases), "n_runs": sum(len(c["runs"]) for c in cases),
         "n_gates": len(gates), "n_gates_passed": sum(g["passed"] for g in gates), "wall_s": wall_s,
-        "cases": cases, "sections": list(extra_sections), "fmt": fmt,
+        "cases": cases, "sections": [properties_section(), *extra_sections], "fmt": fmt,
         "css": (TEMPLATES / "style.css").read_text(),
     }
     html = env.get_template("report.html.j2").render(**ctx)

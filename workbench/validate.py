@@ -146,7 +146,33 @@ def _whip_metrics(res: SimulationResult, rec: FlightRecord) -> dict:
     return out
 
 
+RINGDOWN_KINDS = ("ringdown_bending", "ringdown_axial")
+
+
+def _one_ringdown(args) -> Run:
+    """Paper Fig. 9 for one measured group (a setpoint's repetitions): the
+    case's N-element bench rig with the property table at the group's mean
+    temperature, simulated and measured like the bench records."""
+    from workbench.hardware import load_hardware
+    from workbench.properties import BenchRig, load_library, verify_group
+    case, variant, group = args
+    sheet = load_hardware().get("hose", group["hose"])
+    hanging = group["test_kind"] == "ringdown_axial"
+    rig = BenchRig.from_sheet(sheet, group["section_length_m"], hanging=hanging, tip_mass=group["tip_mass_kg"])
+    table = load_library().table(group["hose"])
+    t0 = time.perf_counter()
+    row = verify_group(table, rig, group, int(case["model"]["n_elements"]),
+                       allow_extrapolation=case["model.structure"]["allow_extrapolation"])
+    wall = time.perf_counter() - t0
+    metrics = {k: v for k, v in row.items() if k not in ("records",)}
+    label = f"{group['hose']} {row['test']} {row['temperature_F']:.1f}F"
+    return Run(case.id, variant["id"], label, ", ".join(group["records"]), metrics, None, wall,
+               {"n_elements": row["n_elements"], "structure": "property table"})
+
+
 def _one_run(args) -> Run:
+    if len(args) == 3:
+        return _one_ringdown(args)
     case, variant, log_path, tuned = args
     rec = read_record(log_path)
     t0 = time.perf_counter()
@@ -220,6 +246,16 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
         if not paths:
             outcomes[case.id] = CaseOutcome(case, [], [], error="the case names no logs")
             continue
+        if case.kind in RINGDOWN_KINDS:
+            from workbench.properties import group_measurements, measure_records
+            try:
+                groups = group_measurements(measure_records(paths))
+            except (LogError, InputError, ValueError) as exc:
+                outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc))
+                continue
+            outcomes[case.id] = CaseOutcome(case, [], [])
+            jobs += [(case, variants_of(case)[0], g) for g in groups]
+            continue
         try:
             records = {p: read_record(p) for p in paths}
             tuned = {}
@@ -255,12 +291,13 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
 
 
 def _collect(outcomes, job, get, bar):
-    case, v, p, _ = job
+    case, v, p = job[:3]
     oc = outcomes[case.id]
     try:
         oc.runs.append(get())
     except (LogError, InputError, StaticSolveError, DivergenceError, ValueError) as exc:
-        msg = f"variant {v['id']}, log {Path(p).name}: {exc}"
+        where = Path(p).name if isinstance(p, (str, Path)) else f"records {', '.join(p['records'])}"
+        msg = f"variant {v['id']}, {where}: {exc}"
         oc.error = msg if oc.error is None else oc.error
     bar.update(1)
 
