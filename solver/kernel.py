@@ -63,7 +63,9 @@ P_HOSE_REST_SUM = 44  # sum of rest lengths of hose elements 1..nh-1 (element 0 
 P_EXTRA_MASS0 = 45    # mass lumped on node 1 besides its half elements (normally 0)
 P_REEL_HOLD = 46      # reel drive hold-back b, N s/m at the drum rim (0: none; `_drive_hold`)
 P_REEL_LAG = 47       # first-order lag of the drive's speed reference, s
-NP = 48
+P_END_K = 48   # probe coupling stiffness, N/m (0: the end follows its table rigidly)
+P_END_C = 49   # probe coupling damping, N s/m
+NP = 50
 
 # the drive hold-back's state in the `reel` array (after the 10 bookkeeping slots):
 # the lagged speed reference, the ring position, then a ring of past payout speeds
@@ -562,8 +564,11 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
         for c in range(3):
             pos[0, c] = tow_now[c]
         end_active = P[P_END_MODE] != 0.0 and P[P_END_ON] <= t <= P[P_END_OFF]
+        # rigid: the end node is the table; compliant: a spring-damper ties it to the table
+        end_rigid = end_active and P[P_END_K] == 0.0
         if end_active:
             _interp_table(end_t0, end_dt, end_tab, t, end_now)
+        if end_rigid:
             for c in range(3):
                 pos[last, c] = end_now[c]
         # reel: hose length outside and the reel-exit element
@@ -601,7 +606,7 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
                 vel[i, c] = vel_half[i, c] + 0.5 * dt * acc_prev[i, c]
         for c in range(3):
             vel[0, c] = tow_now[3 + c]
-        if end_active:
+        if end_rigid:
             for c in range(3):
                 vel[last, c] = end_now[3 + c]
         compute_forces(t, P, n, nh, pos, vel, mass, rest, ka, ca_explicit, kb, cb, wind_par,
@@ -611,7 +616,14 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
             v_star[0, c] = (tow_next[c] - tow_now[c]) / dt
         inv_m[1] = 1.0 / mass[1]      # the reel-exit node's mass follows the reel
         inv_m[last] = 1.0 / mass[last]
-        if end_active:
+        if end_active and not end_rigid:
+            for c in range(3):
+                fc = P[P_END_K] * (end_now[c] - pos[last, c]) + P[P_END_C] * (end_now[3 + c] - vel[last, c])
+                F[last, c] += fc
+                end_reaction[c] = fc
+                if end_reaction.shape[0] >= 6:
+                    end_reaction[3 + c] += dt * fc
+        if end_rigid:
             _interp_table(end_t0, end_dt, end_tab, t + dt, end_next)
             inv_m[last] = 0.0
             for c in range(3):
@@ -649,7 +661,7 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
                 vel_half[i, c] += a * dt
         for c in range(3):
             vel_half[0, c] = (tow_next[c] - tow_now[c]) / dt
-        if end_active:
+        if end_rigid:
             for c in range(3):
                 v_new = (end_next[c] - end_now[c]) / dt
                 # constraint reaction: what the prescribed motion needs beyond the forces
@@ -713,7 +725,7 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
         v0x, v0y, v0z = vel_half[0, 0], vel_half[0, 1], vel_half[0, 2]
         vmax2 = P[P_VMAX] * P[P_VMAX]
         for i in range(1, n):
-            if end_active and i == last:
+            if end_rigid and i == last:
                 for c in range(3):
                     pos[i, c] = end_next[c]
             else:

@@ -102,6 +102,10 @@ SCHEMA = {
         "drogue_drag_scale": Field(NUM, 1.0, _positive),
         "reel": Field(str, "locked", _one_of("locked", "drum", "from_log")),
         "drogue_after_contact": Field(str, "free", _one_of("free", "from_log")),
+        # probe-drogue coupling: an assumed compliance (probe mast and the coupling's
+        # latch rollers), not a measured one; 0 holds the drogue rigidly on the probe
+        "probe_coupling_N_m": Field(NUM, 2.0e5, _nonneg),
+        "probe_coupling_damping_ratio": Field(NUM, 0.7, _nonneg),
         "reel_torque_law": Field(str, "constant_tension", _one_of("constant_tension", "constant_torque")),
         "reel_torque_N_m": Field(NUM, None, _positive),
         "hinge_damping_N_m_s": Field(NUM, 0.0, _nonneg),

@@ -63,7 +63,8 @@ def contact_window(rec: FlightRecord) -> tuple[float, float]:
     return contact[0], (disc[0] if disc else np.inf)
 
 
-def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray) -> EndConstraint:
+def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray, stiffness: float = 0.0,
+                         damping: float = 0.0) -> EndConstraint:
     """The drogue held by the probe from contact to disconnect, as the paper
     prescribed it: its displacement from the steady trail before contact,
     added to the model's own steady drogue position `drogue_start`.
@@ -71,7 +72,8 @@ def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray) -> EndCons
     The probe track (no dropouts) carries the motion; the drogue centre sits at
     a fixed offset from the probe tip once engaged, measured as the median of
     (drogue - probe) over the engaged fixes the optical tracker kept. The
-    steady position is the median of the valid fixes in the 3 s before contact."""
+    steady position is the median of the valid fixes in the 3 s before contact.
+    `stiffness` and `damping` are the probe coupling's (see EndConstraint)."""
     t_on, t_off = contact_window(rec)
     probe = rec.topic("/receiver/probe")
     tp = probe.index.to_numpy(float)
@@ -89,4 +91,4 @@ def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray) -> EndCons
     offset = np.median(dd_all[ok] - at_probe, axis=0)
     steady = np.median(dd_all[pre], axis=0)
     path = _lowpass(tp, pp, PROBE_CUTOFF_HZ) + offset - steady + np.asarray(drogue_start, dtype=float)
-    return EndConstraint(Trajectory(tp, path), t_on=t_on, t_off=t_off)
+    return EndConstraint(Trajectory(tp, path), t_on=t_on, t_off=t_off, stiffness=stiffness, damping=damping)

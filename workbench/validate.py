@@ -105,12 +105,17 @@ def simulate_against(case: Case, variant: dict, rec: FlightRecord, tuned: dict) 
     t0 = float(model.tow.t[0])
     s0 = solve_static(model, t0)
     if case["model"]["drogue_after_contact"] == "from_log":
-        model.end = log_inputs.drogue_while_engaged(rec, s0.pos[-1])
+        k = float(case["model"]["probe_coupling_N_m"])
+        m_end = model.drogue.mass if model.drogue else model.tip_mass
+        c = 2.0 * float(case["model"]["probe_coupling_damping_ratio"]) * np.sqrt(k * m_end)
+        model.end = log_inputs.drogue_while_engaged(rec, s0.pos[-1], stiffness=k, damping=c)
     res = simulate(model, t0 + _run_duration(case, rec), s0, record_dt=float(case["run"]["record_dt_s"]))
     options = {"n_elements": model.n_elements, "reel": model.reel.mode,
                "drogue_lift_scale": model.drogue.lift_scale if model.drogue else None,
                "drogue_drag_scale": model.drogue.drag_scale if model.drogue else None,
                "drogue_after_contact": case["model"]["drogue_after_contact"],
+               "probe_coupling_N_m": case["model"]["probe_coupling_N_m"],
+               "probe_coupling_damping_ratio": case["model"]["probe_coupling_damping_ratio"],
                "structure": case["model.structure"]["source"],
                "true_airspeed_mps": model.wind.mean_speed, "air_density": model.air_density}
     return res, options
