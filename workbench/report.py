@@ -58,7 +58,35 @@ def fmt(v) -> str:
     return str(v)
 
 
+def _table1(case_json: dict) -> list[dict]:
+    """The paper's Table 1 for our data: the drogue's fundamental frequency in
+    flight (mean over the case's logs) and in each model variant, with errors."""
+    runs = case_json["runs"]
+    if case_json["kind"] != "pitch_doublet" or not runs:
+        return []
+    logs = {}
+    for r in runs:
+        logs.setdefault(r["log"], r["metrics"].get("drogue_frequency_hz_log"))
+    f_log = [v for v in logs.values() if v is not None]
+    if not f_log:
+        return []
+    f_mean = float(sum(f_log) / len(f_log))
+    rows = [["flight test data", f_mean, None]]
+    for vid in dict.fromkeys(r["variant"] for r in runs):
+        fs = [r["metrics"].get("drogue_frequency_hz_sim") for r in runs if r["variant"] == vid]
+        fs = [v for v in fs if v is not None]
+        if fs:
+            f = float(sum(fs) / len(fs))
+            rows.append([f"model: {vid}", f, 100.0 * (f - f_mean) / f_mean])
+    return [{"title": f"Table 1: drogue fundamental frequency (mean of {len(f_log)} doublets)",
+             "header": ["", "drogue frequency (Hz)", "error (%)"], "rows": rows}]
+
+
 def _tables(case_json: dict) -> list[dict]:
+    return _table1(case_json) + _run_table(case_json)
+
+
+def _run_table(case_json: dict) -> list[dict]:
     cols = TABLE_METRICS.get(case_json["kind"], TABLE_METRICS.get("ringdown_bending")
                              if case_json["kind"].startswith("ringdown") else [])
     if not cols or not case_json["runs"]:

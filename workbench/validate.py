@@ -28,6 +28,7 @@ from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
 from workbench import log_inputs
 from workbench.cases import Case, build_model, case_log_paths, load_case
+from workbench.effects_compare import apply_comparison_effects
 from workbench.errors import InputError
 from workbench.simlog import result_to_record
 
@@ -184,7 +185,8 @@ def _one_run(args) -> Run:
     res, options = simulate_against(case, variant, rec, tuned)
     wall = time.perf_counter() - t0
     sim_rec = result_to_record(res, rec, note=f"case {case.id}, variant {variant['id']}")
-    metrics = compare_records(rec, sim_rec)
+    # comparison-only effects (the tracker's delay) act on the log as compared, not on the physics
+    metrics = compare_records(apply_comparison_effects(rec, case["effects"]), sim_rec)
     if case.kind == "engagement":
         metrics.update(_whip_metrics(res, rec))
     held_out = rec.info.test_id not in variant.get("tune_drogue_lift_on", [])
