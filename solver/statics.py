@@ -32,9 +32,8 @@ def _forces(model, P, t, arrays, pos, work):
     return F, tension
 
 
-def _aero_element(model, P, t, mid, tvec, l0):
-    """Steady aerodynamic force on a hose element of direction tvec at rest."""
-    w = model.wind.velocity(t, mid[None, :])[0]
+def _aero_element(model, P, w, tvec, l0):
+    """Steady aerodynamic force on a hose element of direction tvec at rest in wind w."""
     u = w @ tvec
     vn_vec = w - u * tvec
     vn = float(np.linalg.norm(vn_vec))
@@ -95,8 +94,10 @@ def string_guess(model: Model, t: float, rest: np.ndarray, P: np.ndarray, fallba
             l_below = rest[k] if k < nh else 0.0
             base = S + 0.5 * mu * (l0 + l_below) * g + half_aero_below
             Se = base
+            # the wind at the element's lower end: the first guess needs no finer sampling
+            w = model.wind.velocity(t, x[None, :])[0]
             for _ in range(5):
-                fa = _aero_element(model, P, t, x - 0.5 * l0 * tvec, tvec, l0)
+                fa = _aero_element(model, P, w, tvec, l0)
                 Se = base + 0.5 * fa
                 nS = np.linalg.norm(Se)
                 if nS < 1e-12:
