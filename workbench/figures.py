@@ -72,6 +72,12 @@ def trail_figures(outcome, out_dir: Path) -> list[Path]:
         hose = rec.topic("/video/hose")
         fig, ax = plt.subplots(figsize=(8, 3.6))
         ax.plot(hose["x_m"], hose["z_m"], ".", ms=2, color="0.5", label="flight (video points)")
+        gate = next((g for g in outcome.gates if g.metric == "trail_shape_rms_error_m"), None)
+        gated = [r for r in runs if gate is not None and r.variant == gate.variant]
+        if gated:
+            p = gated[0].result.hose_points(len(gated[0].result.t) - 1)
+            ax.fill_between(p[:, 0], p[:, 2] - gate.threshold, p[:, 2] + gate.threshold, color="0.88",
+                            label=f"shape gate +/-{gate.threshold:g} m about {gate.variant}")
         for i, r in enumerate(runs):
             p = r.result.hose_points(len(r.result.t) - 1)
             rms = r.metrics.get("trail_shape_rms_error_m")
@@ -123,6 +129,10 @@ def engagement_figures(outcome, out_dir: Path) -> list[Path]:
             ax.plot(ts, es, color=COLORS[i % 5], lw=1, label=_variant_label(outcome.case, r.variant))
         for name, tm in moments.items():
             ax.axvline(tm, color="0.7", lw=0.8)
+        for g in outcome.gates:
+            if g.metric == "shape_rms_error_engaged_m":
+                ax.axhline(g.threshold, color="k", ls="--", lw=0.8, label=f"gate (RMS over contact) {g.threshold:g} m")
+        ax.legend(fontsize=7)
         ax.set_xlabel("t (s)")
         ax.set_ylabel("hose shape RMS error (m)")
         ax.set_title("shape error vs video")
