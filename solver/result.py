@@ -59,26 +59,21 @@ class SimulationResult:
         nt, n_max, _ = pos.shape
         extra = 1 if model.has_drogue else 0
         nh = n_nodes - 1 - extra          # hose elements per record
-        hose_xyz = np.full((nt, n_max - extra, 3), np.nan)
-        hose_vel = np.full_like(hose_xyz, np.nan)
-        ten = np.full((nt, n_max - 1 - extra), np.nan)
+        rows = np.arange(nt)
+        # hose nodes are 0..nh; with a drogue its node (nh+1) follows and is moved out
+        node = np.arange(n_max - extra)[None, :]
+        keep = node <= nh[:, None]
+        hose_xyz = np.where(keep[..., None], pos[:, :n_max - extra], np.nan)
+        hose_vel = np.where(keep[..., None], vel[:, :n_max - extra], np.nan)
+        ten = np.where(node[:, :-1] < nh[:, None], tension[:, :n_max - 1 - extra], np.nan)
         drogue = dvel = hinge = None
         if extra:
-            drogue = np.full((nt, 3), np.nan)
-            dvel = np.full((nt, 3), np.nan)
-            hinge = np.full(nt, np.nan)
-        for k in range(nt):
-            m = nh[k]
-            hose_xyz[k, :m + 1] = pos[k, :m + 1]
-            hose_vel[k, :m + 1] = vel[k, :m + 1]
-            ten[k, :m] = tension[k, :m]
-            if extra:
-                drogue[k] = pos[k, m + 1]
-                dvel[k] = vel[k, m + 1]
-                a = pos[k, m] - pos[k, m - 1]
-                b = pos[k, m + 1] - pos[k, m]
-                c = np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b))
-                hinge[k] = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+            drogue = pos[rows, nh + 1].copy()
+            dvel = vel[rows, nh + 1].copy()
+            a = pos[rows, nh] - pos[rows, nh - 1]
+            b = drogue - pos[rows, nh]
+            c = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+            hinge = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
         return cls(
             t=t, hose_xyz=hose_xyz, hose_vel=hose_vel, tension=ten,
             reel_length=reel[:, 0].copy(), reel_speed=reel[:, 1].copy(),
