@@ -132,15 +132,7 @@ def simulate(model: Model, t_end: float, state0: Optional[State] = None, dt: Opt
         k_done += steps
         if code == K.OK:
             break
-        t_bad = t_start + k_done * dt
-        if code in (K.NONFINITE, K.OVERSPEED):
-            what = "non-finite position or velocity" if code == K.NONFINITE else \
-                f"speed above {P[K.P_VMAX]:.0f} m/s (energy blow-up)"
-            raise DivergenceError(
-                f"simulation diverged at t={t_bad:.4f} s: {what} first at {_describe_node(model, n, bad)}")
-        if code == K.REEL_LIMIT:
-            raise DivergenceError(f"at t={t_bad:.4f} s the reel has taken in all the hose but "
-                                  f"{int(P[K.P_NE_MIN])} elements, the fewest the model keeps")
+        check_failure(code, t_start + k_done * dt, model, n, bad, P, "simulation")
         # remesh at the reel exit, then restart on the same record grid
         pos, vel_half, acc, rest, dflux = _remesh(code, model, nh, pos, vel_half, acc, rest, mass,
                                                   reel[0])
@@ -166,6 +158,19 @@ def reel_state(model: Model, state0: State, dt: float) -> np.ndarray:
     reel[K.REEL_FILT] = state0.reel_speed
     reel[K.REEL_RING:] = state0.reel_speed
     return reel
+
+
+def check_failure(code: int, t_bad: float, model: Model, n: int, bad: int, P: np.ndarray, what_ran: str) -> None:
+    """Raise the DivergenceError a kernel failure code stands for (naming the time
+    and the node where it began); return for the codes that only ask for a remesh."""
+    if code in (K.NONFINITE, K.OVERSPEED):
+        what = "non-finite position or velocity" if code == K.NONFINITE else \
+            f"speed above {P[K.P_VMAX]:.0f} m/s (energy blow-up)"
+        raise DivergenceError(
+            f"{what_ran} diverged at t={t_bad:.4f} s: {what} first at {_describe_node(model, n, bad)}")
+    if code == K.REEL_LIMIT:
+        raise DivergenceError(f"at t={t_bad:.4f} s the reel has taken in all the hose but "
+                              f"{int(P[K.P_NE_MIN])} elements, the fewest the model keeps")
 
 
 def _reel_set_point(model: Model, state0: State, rest: np.ndarray) -> float:

@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from solver import kernel as K
-from solver.integrate import DivergenceError, _describe_node, _reel_set_point, _remesh, _tables, reel_state
+from solver.integrate import _reel_set_point, _remesh, _tables, check_failure, reel_state
 from solver.model import Model
 from solver.state import State
 from solver.statics import solve_static
@@ -312,15 +312,7 @@ class Stepper:
             done += steps
             if code == K.OK:
                 break
-            t_bad = t_start + done * h
-            if code in (K.NONFINITE, K.OVERSPEED):
-                what = "non-finite position or velocity" if code == K.NONFINITE else \
-                    f"speed above {self.P[K.P_VMAX]:.0f} m/s (energy blow-up)"
-                raise DivergenceError(f"step diverged at t={t_bad:.4f} s: {what} first at "
-                                      f"{_describe_node(self.model, self.n, bad)}")
-            if code == K.REEL_LIMIT:
-                raise DivergenceError(f"at t={t_bad:.4f} s the reel has taken in all the hose but "
-                                      f"{int(self.P[K.P_NE_MIN])} elements, the fewest the model keeps")
+            check_failure(code, t_start + done * h, self.model, self.n, bad, self.P, "step")
             self.pos, self.vel_half, self.acc, self._rest, dflux = _remesh(
                 code, self.model, self.nh, self.pos, self.vel_half, self.acc, self._rest, self.mass, self.reel[0])
             self.reel[4:7] += dflux
