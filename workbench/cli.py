@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from workbench.cli_diagnose import diagnose
 from workbench.cli_logs import logs
 from workbench.cli_properties import properties
 from workbench.errors import InputError
@@ -19,6 +20,7 @@ def cli() -> None:
 
 cli.add_command(logs)
 cli.add_command(properties)
+cli.add_command(diagnose)
 
 
 @cli.command()
@@ -57,7 +59,11 @@ def run(case_file: Path, out_dir: Path, duration: float | None, effects: tuple[s
               show_default=True, help="Folder for report.html, report.pdf, results.json, junit.xml.")
 @click.option("--workers", type=int, default=None, help="Processes (default: one per core).")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
-def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool) -> None:
+@click.option("--diagnosis", "diagnosis_file", type=click.Path(dir_okay=False, path_type=Path),
+              default=Path("reports/diagnose/diagnosis.json"), show_default=True,
+              help="A diagnosis.json to fold into the report as its own section (skipped if absent).")
+def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool,
+             diagnosis_file: Path) -> None:
     """Run cases against their logs and gate them: `validate all` or `validate CASE...`.
 
     Exit status: 0 all gates pass, 1 a gate fails (a finding about the model),
@@ -85,7 +91,15 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
     results = results_dict(outcomes)
     wall = time.perf_counter() - t0
     results["wall_s"] = wall
-    files = write_report(outcomes, results, out_dir, wall)
+    sections = []
+    if diagnosis_file.exists():
+        import json
+        from workbench.diagnose import report_section
+        try:
+            sections.append(report_section(json.loads(diagnosis_file.read_text())))
+        except (ValueError, KeyError) as exc:
+            raise click.ClickException(f"{diagnosis_file}: not a diagnosis.json ({exc})") from None
+    files = write_report(outcomes, results, out_dir, wall, extra_sections=sections)
     n_g = sum(len(c["gates"]) for c in results["cases"])
     n_ok = sum(g["passed"] for c in results["cases"] for g in c["gates"])
     click.echo(f"{len(outcomes)} cases, {n_ok}/{n_g} gates pass, {wall:.1f} s; report {files['html']}")
