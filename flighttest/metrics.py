@@ -523,25 +523,13 @@ class ShapeError:
     vertical_max_abs_m: float
 
 
-def shape_error(x_meas, z_meas, x_sim, z_sim, *, bin_m: float = 1.0) -> ShapeError:
-    """Distance of measured hose points from a simulated centre line.
-
-    Method: for each measured point the nearest point of the simulated
-    polyline (segment by segment projection) gives the signed normal
-    distance (positive on the left of the line walked from the tow point,
-    i.e. above a hose trailing aft) and the arc-length station of the foot.
-    Points whose nearest foot is an end of the line are not normal
-    distances and are left out of the statistics (`inside` is False).
-    RMS and max use the inside points; `bins` groups them by station.
-    The vertical error compares z at equal downstream distance x, by linear
-    interpolation of the simulated line (which must advance in x), only
-    where x lies inside the simulated range.
-    """
-    q = np.column_stack([_as_float(x_meas), _as_float(z_meas)])
-    q = q[np.all(np.isfinite(q), axis=1)]
-    P = np.column_stack([_as_float(x_sim), _as_float(z_sim)])
-    if len(P) < 2:
-        raise ValueError("simulated line needs at least 2 points")
+def project_onto_polyline(q: np.ndarray, P: np.ndarray):
+    """Foot points of points q (n, 2) on the polyline P (m, 2): the signed normal
+    distance (positive on the left of the line walked from its first point,
+    i.e. above a hose trailing aft), the arc-length station of the foot, and
+    whether the foot lies strictly inside the line (not clamped to an end).
+    Zero-length segments are dropped. Returns (err, station, inside, P, s_nodes)
+    with the cleaned polyline and its nodes' arc lengths."""
     d = np.diff(P, axis=0)
     seg_len = np.hypot(d[:, 0], d[:, 1])
     if np.any(seg_len == 0):
@@ -561,6 +549,29 @@ def shape_error(x_meas, z_meas, x_sim, z_sim, *, bin_m: float = 1.0) -> ShapeErr
     err = np.sign(cross) * dist[rows, j]
     station = s_nodes[j] + uj * seg_len[j]
     inside = ~(((j == 0) & (uj <= 0.0)) | ((j == len(d) - 1) & (uj >= 1.0)))
+    return err, station, inside, P, s_nodes
+
+
+def shape_error(x_meas, z_meas, x_sim, z_sim, *, bin_m: float = 1.0) -> ShapeError:
+    """Distance of measured hose points from a simulated centre line.
+
+    Method: for each measured point the nearest point of the simulated
+    polyline (segment by segment projection) gives the signed normal
+    distance (positive on the left of the line walked from the tow point,
+    i.e. above a hose trailing aft) and the arc-length station of the foot.
+    Points whose nearest foot is an end of the line are not normal
+    distances and are left out of the statistics (`inside` is False).
+    RMS and max use the inside points; `bins` groups them by station.
+    The vertical error compares z at equal downstream distance x, by linear
+    interpolation of the simulated line (which must advance in x), only
+    where x lies inside the simulated range.
+    """
+    q = np.column_stack([_as_float(x_meas), _as_float(z_meas)])
+    q = q[np.all(np.isfinite(q), axis=1)]
+    P = np.column_stack([_as_float(x_sim), _as_float(z_sim)])
+    if len(P) < 2:
+        raise ValueError("simulated line needs at least 2 points")
+    err, station, inside, P, s_nodes = project_onto_polyline(q, P)
     e_in = err[inside]
     rms = float(np.sqrt(np.mean(e_in ** 2))) if len(e_in) else float("nan")
     mx = float(np.max(np.abs(e_in))) if len(e_in) else float("nan")

@@ -286,27 +286,11 @@ def _drogue_residual(ob: Observed, t_sim, end_sim, delay: float):
 def _shape_normals(px, pz, lx, lz):
     """Signed normal distance (+ above a hose trailing aft) and arc-length
     station of points from a polyline, and whether the foot lies inside it:
-    `metrics.shape_error`'s method without its tables (this runs per frame)."""
+    `metrics.shape_error`'s projection without its tables (this runs per frame)."""
     q = np.column_stack([np.asarray(px, float), np.asarray(pz, float)])
     q = q[np.all(np.isfinite(q), axis=1)]
     P = np.column_stack([np.asarray(lx, float), np.asarray(lz, float)])
-    d = np.diff(P, axis=0)
-    L = np.hypot(d[:, 0], d[:, 1])
-    keep = L > 0
-    P0, d, L = P[:-1][keep], d[keep], L[keep]
-    s_nodes = np.concatenate([[0.0], np.cumsum(L)])
-    r = q[:, None, :] - P0[None, :, :]
-    u = np.clip((r[..., 0] * d[:, 0] + r[..., 1] * d[:, 1]) / L ** 2, 0.0, 1.0)
-    fx = P0[None, :, 0] + u * d[:, 0]
-    fz = P0[None, :, 1] + u * d[:, 1]
-    dist = np.hypot(q[:, None, 0] - fx, q[:, None, 1] - fz)
-    j = np.argmin(dist, axis=1)
-    rows = np.arange(len(q))
-    uj = u[rows, j]
-    cross = d[j, 0] * r[rows, j, 1] - d[j, 1] * r[rows, j, 0]
-    err = np.sign(cross) * dist[rows, j]
-    station = s_nodes[j] + uj * L[j]
-    inside = ~(((j == 0) & (uj <= 0.0)) | ((j == len(d) - 1) & (uj >= 1.0)))
+    err, station, inside, _, _ = M.project_onto_polyline(q, P)
     return err, station, inside
 
 
