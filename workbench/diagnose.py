@@ -42,7 +42,9 @@ The method
    `SCREEN_KEEP` are calibrated (coarse grid, then bounded least squares on
    their one or two most influential parameters) and scored held-out; pairs of
    the best three are fitted when one effect leaves a real gap. Ranked by
-   held-out gap times (1 + `PARAM_PENALTY` per parameter).
+   held-out gap times (1 + `PARAM_PENALTY` per parameter); a pair ranks above
+   its better member only if it cuts that member's held-out gap by
+   `PAIR_GAIN` and by more than the noise (Occam's rule).
 3. How much: gap before, after on training data, after held out, per log and
    per family, with each parameter's standard error (Gauss-Newton covariance
    of the fit on all logs).
@@ -86,6 +88,7 @@ PARAM_PENALTY = 0.05    # each parameter must buy 5 % of held-out gap
 SCREEN_KEEP = 4         # effects calibrated in full after the screen
 PAIR_FROM = 3           # pairs among the best three singles
 PAIR_WHEN_LEFT = 0.2    # fit a pair when the best single leaves this share of the gap
+PAIR_GAIN = 0.25        # a pair ranks above its members only if it shrinks their best held-out gap by this share
 DEFAULT_ELEMENTS = 20   # 20 elements move the static drogue by ~1 mm against 40, at half the cost
 
 # The parameters calibrated, per effect: the one or two that move the
@@ -773,6 +776,22 @@ def diagnose_family(paths: list[str], n_elements: int = DEFAULT_ELEMENTS, mapper
         c["shrink_heldout"] = 1.0 - c["gap_after_heldout"] / gap_before_heldout if gap_before_heldout else None
         c["score"] = c["gap_after_heldout"] * (1 + PARAM_PENALTY * c["n_params"])
         c["screen_share"] = {e: scores.get(e) for e in c["effects"]}
+    # Occam's rule for pairs: the second effect must earn its place on held-out data,
+    # cutting the better member's gap by PAIR_GAIN and by more than the noise; a pair
+    # that only polishes a single effect's fit ranks behind that single effect.
+    by_effect = {c["effects"][0]: c for c in singles}
+    for c in results:
+        if len(c["effects"]) < 2:
+            continue
+        member = min((by_effect[e] for e in c["effects"] if e in by_effect),
+                     key=lambda m: m["score"], default=None)
+        if member is None:
+            continue
+        gain = member["gap_after_heldout"] - c["gap_after_heldout"]
+        if not (gain > PAIR_GAIN * member["gap_after_heldout"] and gain > NOISE_FACTOR * floor):
+            c["score"] = max(c["score"], member["score"] * (1 + 1e-9))
+            c["why_not_first"] = (f"does not cut {member['effects'][0]}'s held-out gap by "
+                                  f"{PAIR_GAIN:.0%} and more than the noise")
     results.sort(key=lambda c: c["score"])
     none = {"effect": "none", "effects": [], "n_params": 0, "params": {}, "param_stderr": {},
             "gap_before": gap_before_heldout if len(paths) == 1 else gap_before,
@@ -857,6 +876,7 @@ def diagnose(paths, out_dir: Path | None = None, n_elements: int = DEFAULT_ELEME
         fams = group_families(paths)
         out = {"logs": [str(p) for p in paths], "families": {}, "gap": {}, "ranking": [],
                "gap_definition": GAP_DEFINITION, "noise_factor": NOISE_FACTOR, "param_penalty": PARAM_PENALTY,
+               "pair_gain": PAIR_GAIN,
                "scheduler": scheduler or "local processes"}
         for name, ps in fams.items():
             d = diagnose_family(ps, n_elements, mapper, progress)
