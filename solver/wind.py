@@ -177,6 +177,19 @@ def _grid_lerp(px, py, pz, p, base):
     return True, out0, out1, out2
 
 
+@njit(cache=True, inline="always")
+def _table_slot(s, n, start):
+    """Where fractional row s of a table of n rows of three values, packed from
+    params index `start`, falls: the index of its lower row's first value and the
+    fraction towards the next row, held at the ends."""
+    if s <= 0.0:
+        return start, 0.0
+    if s >= n - 1:
+        return start + 3 * (n - 2), 1.0
+    m = int(s)
+    return start + 3 * m, s - m
+
+
 @njit(cache=True)
 def wind_eval(t, points, npoints, params, out):
     """Air velocity (m/s) at points[:npoints] at time t into out[:npoints]."""
@@ -211,16 +224,7 @@ def wind_eval(t, points, npoints, params, out):
             n = int(p[3])
             for i in range(npoints):
                 s = (points[i, 0] - U * t - p[1]) * inv
-                if s <= 0.0:
-                    j = 4
-                    f = 0.0
-                elif s >= n - 1:
-                    j = 4 + 3 * (n - 2)
-                    f = 1.0
-                else:
-                    m = int(s)
-                    j = 4 + 3 * m
-                    f = s - m
+                j, f = _table_slot(s, n, 4)
                 g = 1.0 - f
                 out[i, 0] += g * p[j] + f * p[j + 3]
                 out[i, 1] += g * p[j + 1] + f * p[j + 4]
@@ -232,17 +236,7 @@ def wind_eval(t, points, npoints, params, out):
             Q = p[0]
             a = p[1]
             n = int(p[4])
-            s = (t - p[2]) / p[3]
-            if s <= 0.0:
-                j = 5
-                f = 0.0
-            elif s >= n - 1:
-                j = 5 + 3 * (n - 2)
-                f = 1.0
-            else:
-                m = int(s)
-                j = 5 + 3 * m
-                f = s - m
+            j, f = _table_slot((t - p[2]) / p[3], n, 5)
             sx = (1.0 - f) * p[j] + f * p[j + 3]
             sy = (1.0 - f) * p[j + 1] + f * p[j + 4]
             sz = (1.0 - f) * p[j + 2] + f * p[j + 5]
