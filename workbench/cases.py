@@ -45,6 +45,7 @@ from workbench.hardware import Hardware, load_hardware
 
 KINDS = ("ringdown_bending", "ringdown_axial", "pitch_doublet", "trail", "engagement")
 ARRAY_TABLES = ("variants", "gates")
+DEFAULT_DURATION_S = 10.0   # a run with neither [run] duration_s nor a log to span
 FT = 0.3048
 
 
@@ -402,7 +403,7 @@ def _tow_motion(case: Case) -> Trajectory:
     tm = case["tow_motion"]
     if tm["kind"] == "none":
         return Trajectory.fixed()
-    dur = float(case["run"]["duration_s"] or 10.0)
+    dur = float(case["run"]["duration_s"] or DEFAULT_DURATION_S)
     t = np.linspace(0.0, max(dur, tm["start_s"] + tm["period_s"]), int(max(dur, 1.0) * 200) + 1)
     phase = (t - tm["start_s"]) / tm["period_s"]
     z = np.where((phase > 0) & (phase < 1), tm["amplitude_m"] * np.sin(2 * np.pi * phase), 0.0)

@@ -11,7 +11,7 @@ import numpy as np
 from solver.integrate import DivergenceError, simulate
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
-from workbench.cases import Case, build_model
+from workbench.cases import DEFAULT_DURATION_S, Case, build_model
 from workbench.errors import InputError
 
 
@@ -44,7 +44,7 @@ class RunOutcome:
 
 def run_case(case: Case, duration_s: float | None = None) -> RunOutcome:
     model = build_model(case)
-    dur = float(duration_s if duration_s is not None else case["run"]["duration_s"])
+    dur = float(duration_s if duration_s is not None else case["run"]["duration_s"] or DEFAULT_DURATION_S)
     try:
         t0 = time.perf_counter()
         s0 = solve_static(model)
