@@ -31,6 +31,7 @@ file, delete `solver/__pycache__/kernel*` so the kernel recompiles.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -94,9 +95,10 @@ def _semi_infinite_x(px, py, pz, ax, ay, az, gam, rc2):
     return 0.0, k * cy, k * cz
 
 
-@njit(cache=True)
-def vortex_wake_direct(px, py, pz, p):
-    """The VORTEX_WAKE field at one point from its filaments and fuselage wake."""
+@njit(cache=True, inline="always")
+def _filaments(px, py, pz, p):
+    """The VORTEX_WAKE filaments' induced velocity at one point (linear in
+    their circulation: what the grid holds)."""
     nfin = int(p[VW_NFIN])
     nsemi = int(p[VW_NSEMI])
     rc2 = p[VW_CORE] * p[VW_CORE]
@@ -116,26 +118,39 @@ def vortex_wake_direct(px, py, pz, p):
         uy += vy
         uz += vz
         k += SEMI_STRIDE
-    f = VW_FUS
-    if p[f] != 0.0:
-        xi = px - p[f + 1]
-        if xi > 0.0:
-            # self-similar axisymmetric wake (Pope 2000, Sec. 5.2): r_half^3 grows
-            # linearly with distance, the centre-line deficit keeps the momentum
-            # deficit U * theta_area
-            rh2 = (p[f + 6] + p[f + 7] * xi) ** (2.0 / 3.0)
-            dy = py - p[f + 2]
-            dz = pz - p[f + 3]
-            u0 = p[f + 4] * LN2 * p[f + 5] / (math.pi * rh2)
-            ux -= u0 * math.exp(-LN2 * (dy * dy + dz * dz) / rh2)
     return ux, uy, uz
 
 
+@njit(cache=True, inline="always")
+def _fuselage_deficit(px, py, pz, p):
+    """The VORTEX_WAKE fuselage wake's axial velocity deficit at one point."""
+    f = VW_FUS
+    if p[f] == 0.0:
+        return 0.0
+    xi = px - p[f + 1]
+    if xi <= 0.0:
+        return 0.0
+    # self-similar axisymmetric wake (Pope 2000, Sec. 5.2): r_half^3 grows
+    # linearly with distance, the centre-line deficit keeps the momentum
+    # deficit U * theta_area
+    rh2 = (p[f + 6] + p[f + 7] * xi) ** (2.0 / 3.0)
+    dy = py - p[f + 2]
+    dz = pz - p[f + 3]
+    u0 = p[f + 4] * LN2 * p[f + 5] / (math.pi * rh2)
+    return u0 * math.exp(-LN2 * (dy * dy + dz * dz) / rh2)
+
+
 @njit(cache=True)
-def vortex_wake_many(points, p, out):
-    """`vortex_wake_direct` at many points (fills the grid; tests)."""
+def vortex_wake_direct(px, py, pz, p):
+    """The VORTEX_WAKE field at one point from its filaments and fuselage wake."""
+    ux, uy, uz = _filaments(px, py, pz, p)
+    return ux - _fuselage_deficit(px, py, pz, p), uy, uz
+
+
+@njit(cache=True)
+def _filaments_many(points, p, out):
     for i in range(points.shape[0]):
-        out[i, 0], out[i, 1], out[i, 2] = vortex_wake_direct(points[i, 0], points[i, 1], points[i, 2], p)
+        out[i, 0], out[i, 1], out[i, 2] = _filaments(points[i, 0], points[i, 1], points[i, 2], p)
 
 
 @njit(cache=True, inline="always")
@@ -213,8 +228,8 @@ def wind_eval(t, points, npoints, params, out):
             for i in range(npoints):
                 ok, vx, vy, vz = _grid_lerp(points[i, 0], points[i, 1], points[i, 2], p, base)
                 if not ok:
-                    vx, vy, vz = vortex_wake_direct(points[i, 0], points[i, 1], points[i, 2], p)
-                out[i, 0] += vx
+                    vx, vy, vz = _filaments(points[i, 0], points[i, 1], points[i, 2], p)
+                out[i, 0] += vx - _fuselage_deficit(points[i, 0], points[i, 1], points[i, 2], p)
                 out[i, 1] += vy
                 out[i, 2] += vz
         elif kind == FROZEN_1D:
@@ -381,14 +396,44 @@ def vortex_wake(finite: np.ndarray, semi: np.ndarray, core_radius: float,
         return body
     (x0, x1), (y0, y1), (z0, z1) = box
     h = float(spacing)
-    xs = x0 + h * np.arange(int(math.ceil((x1 - x0) / h)) + 1)
-    ys = y0 + h * np.arange(int(math.ceil((y1 - y0) / h)) + 1)
-    zs = z0 + h * np.arange(int(math.ceil((z1 - z0) / h)) + 1)
-    pts = np.stack(np.meshgrid(xs, ys, zs, indexing="ij"), axis=-1).reshape(-1, 3)
-    vals = np.empty_like(pts)
-    vortex_wake_many(np.ascontiguousarray(pts), body, vals)
-    body[VW_GRID:VW_GRID + 7] = [x0, y0, z0, h, len(xs), len(ys), len(zs)]
-    return np.concatenate([body, vals.ravel()])
+    shape = tuple(int(math.ceil((hi - lo) / h)) + 1 for lo, hi in box)
+    body[VW_GRID:VW_GRID + 7] = [x0, y0, z0, h, *shape]
+    # the grid holds the filaments alone, which are linear in circulation: one
+    # grid per geometry at unit circulation serves every wake strength (a
+    # calibration varies only the strength); the fuselage wake is added exactly
+    gam = np.concatenate([finite[:, 6], semi[:, 3]])
+    scale = float(np.max(np.abs(gam))) if len(gam) else 0.0
+    if scale == 0.0:
+        return np.concatenate([body, np.zeros(3 * math.prod(shape))])
+    unit = body[:VW_HEADER + finite.size + semi.size].copy()
+    unit[VW_FUS:VW_GRID] = 0.0
+    unit[VW_HEADER:] /= np.concatenate([np.tile([1.0] * 6 + [scale], len(finite)),
+                                        np.tile([1.0] * 3 + [scale], len(semi))])
+    return np.concatenate([body, scale * _unit_grid(unit, shape)])
+
+
+_GRID_CACHE: "OrderedDict[bytes, np.ndarray]" = OrderedDict()
+GRID_CACHE_SIZE = 6     # a few MB each: the geometries of one calibration's logs
+
+
+def _unit_grid(unit: np.ndarray, shape: tuple) -> np.ndarray:
+    """The filaments' field on the grid packed in `unit` (read-only, cached)."""
+    key = np.round(unit, 9).tobytes()    # strengths differ in the last bits once normalised
+    vals = _GRID_CACHE.get(key)
+    if vals is None:
+        x0, y0, z0, h = unit[VW_GRID:VW_GRID + 4]
+        axes = [o + h * np.arange(n) for o, n in zip((x0, y0, z0), shape)]
+        pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        vals = np.empty_like(pts)
+        _filaments_many(np.ascontiguousarray(pts), unit, vals)
+        vals = vals.ravel()
+        vals.flags.writeable = False
+        _GRID_CACHE[key] = vals
+        while len(_GRID_CACHE) > GRID_CACHE_SIZE:
+            _GRID_CACHE.popitem(last=False)
+    else:
+        _GRID_CACHE.move_to_end(key)
+    return vals
 
 
 def elliptic_lifting_line(lift: float, density: float, airspeed: float, span: float,
