@@ -96,7 +96,12 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
         import json
         from workbench.diagnose import report_section
         try:
-            sections.append(report_section(json.loads(diagnosis_file.read_text())))
+            diag = json.loads(diagnosis_file.read_text())
+            # the blind selftest's figures, when `diagnose --selftest` wrote them beside it
+            st = diagnosis_file.with_name("selftest.json")
+            if st.exists():
+                diag["selftest"] = json.loads(st.read_text())
+            sections.append(report_section(diag))
         except (ValueError, KeyError) as exc:
             raise click.ClickException(f"{diagnosis_file}: not a diagnosis.json ({exc})") from None
     files = write_report(outcomes, results, out_dir, wall, extra_sections=sections)

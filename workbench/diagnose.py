@@ -37,10 +37,12 @@ The method
    around the hose-drogue fundamental, above it), each beside the log's own
    level in the same band and channel over a quiet segment.
 2. Which: every library effect that can change the kind's observables is
-   screened by its sensitivity pattern (one probe run per parameter: the share
-   of the residual its sensitivity directions span); the best
-   `SCREEN_KEEP` are calibrated (coarse grid, then bounded least squares on
-   their one or two most influential parameters) and scored held-out; pairs of
+   screened by its sensitivity pattern (probe runs below and above the baseline
+   per parameter: the share of the residual their directions span); the best
+   `SCREEN_KEEP` are calibrated (a grid over their one or two most
+   influential parameters, 10 points for one, 5 x 5 for two, 4 per axis
+   beyond; then bounded least squares from the best grid point, and for two or
+   more parameters from the runner-up too) and scored held-out; pairs of
    the best three are fitted when one effect leaves a real gap. Ranked by
    held-out gap times (1 + `PARAM_PENALTY` per parameter); a pair ranks above
    its better member only if it cuts that member's held-out gap by
@@ -85,7 +87,7 @@ STATION_M = 3.0
 BLOCK_S = 2.0           # alternating train / held-out time blocks within one log
 NOISE_FACTOR = 2.0      # a gap under twice its noise floor is not a real gap
 PARAM_PENALTY = 0.05    # each parameter must buy 5 % of held-out gap
-SCREEN_KEEP = 4         # effects calibrated in full after the screen
+SCREEN_KEEP = 5         # effects calibrated in full after the screen
 PAIR_FROM = 3           # pairs among the best three singles
 PAIR_WHEN_LEFT = 0.2    # fit a pair when the best single leaves this share of the gap
 PAIR_GAIN = 0.25        # a pair ranks above its members only if it shrinks their best held-out gap by this share
@@ -151,6 +153,28 @@ def baseline_case(rec: FlightRecord, n_elements: int | None = None) -> Case:
     if n_elements:
         tables["model"] = dict(tables["model"], n_elements=int(n_elements))
     return dataclasses.replace(case, id=f"{case.id}:{rec.info.test_id}", path=str(rec.path), tables=tables)
+
+
+@dataclasses.dataclass(frozen=True)
+class Setup:
+    """What a diagnosis simulates a log with: the kind's template with the
+    log's hardware ids (`case_path` None), or one case file with a variant's
+    model overrides (a validation variant calibrated on its training logs);
+    `n_elements` None keeps the case's own."""
+
+    n_elements: int | None = DEFAULT_ELEMENTS
+    case_path: str | None = None
+    overrides: tuple = ()
+
+    def case_for(self, rec: FlightRecord) -> Case:
+        if self.case_path is None:
+            return baseline_case(rec, self.n_elements)
+        case = load_case(self.case_path)
+        if self.n_elements:
+            tables = dict(case.tables)
+            tables["model"] = dict(tables["model"], n_elements=int(self.n_elements))
+            case = dataclasses.replace(case, tables=tables)
+        return case
 
 
 def family_of(rec: FlightRecord) -> str:
@@ -382,13 +406,13 @@ def _freeze(effects: Mapping) -> tuple:
 
 
 @functools.lru_cache(maxsize=256)
-def _simulate_frozen(path: str, frozen: tuple, n_elements: int):
+def _simulate_frozen(path: str, frozen: tuple, setup: Setup):
     effects = {k: dict(v) for k, v in frozen}
     rec = _record(path)
-    case = baseline_case(rec, n_elements)
+    case = setup.case_for(rec)
     if effects:
         case = with_effects(case, effects)
-    model = build_model(case, record=rec)
+    model = build_model(case, record=rec, variant=dict(setup.overrides))
     t0 = float(model.tow.t[0])
     s0 = solve_static(model, t0)
     kind = rec.info.test_kind
@@ -398,7 +422,10 @@ def _simulate_frozen(path: str, frozen: tuple, n_elements: int):
         line = pts[:-1] if model.drogue is not None else pts
         return {"t": np.array([t0]), "end": pts[-1:].copy(), "hose": lambda t, line=line: line}
     if case["model"]["drogue_after_contact"] == "from_log":
-        model.end = log_inputs.drogue_while_engaged(rec, s0.pos[-1])
+        if setup.case_path is None:
+            model.end = log_inputs.drogue_while_engaged(rec, s0.pos[-1])
+        else:
+            model.end = log_inputs.probe_held_drogue(case, model, rec, s0.pos[-1])
     t_end = float(rec.topic("/ors/drogue").index[-1])
     res = simulate(model, t_end, s0, record_dt=float(case["run"]["record_dt_s"]))
     ts = res.t
@@ -437,12 +464,12 @@ def _frames_normals(res, ts, tv, xv, zv):
     return np.sign(cross) * dist[rows, j]
 
 
-def evaluate(path: str, effects: Mapping, n_elements: int = DEFAULT_ELEMENTS) -> Residual:
+def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
     """The residual of the log at `path` against the baseline with `effects`
     ({name: {param: value}}; comparison-only ones act on the comparison)."""
     phys = {k: v for k, v in effects.items() if not EFFECTS[k].comparison_only}
     delay = float(effects.get("sensor_lag", {}).get("delay_s", 0.0))
-    sim = dict(_simulate_frozen(path, _freeze(phys), int(n_elements)))
+    sim = dict(_simulate_frozen(path, _freeze(phys), setup))
     sim["delay"] = delay
     return residual(_observed(path), sim)
 
@@ -450,9 +477,9 @@ def evaluate(path: str, effects: Mapping, n_elements: int = DEFAULT_ELEMENTS) ->
 BAD = 5.0   # m: a residual component standing in for a diverged or unsolvable run
 
 
-def _safe_eval(path, effects, n_elements, like: Residual | None):
+def _safe_eval(path, effects, setup, like: Residual | None):
     try:
-        return evaluate(path, effects, n_elements)
+        return evaluate(path, effects, setup)
     except (DivergenceError, StaticSolveError, ValueError, FloatingPointError):
         if like is None:
             raise
@@ -493,10 +520,10 @@ def _baseline_u(p) -> float:
                             (0.0 if eff in ("tanker_wake", "bow_wave") else 1.0), lo), hi))
 
 
-def fit(paths: list[str], candidate: tuple, n_elements: int, seg: int | None, base: dict) -> dict:
+def fit(paths: list[str], candidate: tuple, setup: Setup, seg: int | None, base: dict) -> dict:
     """Calibrate `candidate`'s parameters on `paths` (all components, or only
-    segment `seg` of each): a coarse grid in the unit cube, then bounded least
-    squares from its best point. Returns params (x), their standard errors and
+    segment `seg` of each): a grid in the unit cube, then bounded least
+    squares from its best point(s). Returns params (x), their standard errors and
     the training gap."""
     ps = _params_of(candidate)
     n = len(ps)
@@ -506,26 +533,41 @@ def fit(paths: list[str], candidate: tuple, n_elements: int, seg: int | None, ba
         eff = _effects_at(candidate, x)
         out = []
         for pth in paths:
-            R = _safe_eval(pth, eff, n_elements, base[pth])
+            R = _safe_eval(pth, eff, setup, base[pth])
             out.append(R.r if seg is None else R.r[R.seg == seg])
         return np.concatenate(out)
-    grid_1d = np.linspace(0.0, 1.0, 6 if n == 1 else 4)
+    # a dense first grid: the engagement's objective is rough in its parameters
+    # (slack-hose dynamics), so the local polish only refines what the grid found
+    grid_1d = np.linspace(0.0, 1.0, {1: 10, 2: 5}.get(n, 4))
     if n == 1:
         starts = [np.array([g]) for g in grid_1d]
     else:
         starts = [np.array(u) for u in np.stack(np.meshgrid(*[grid_1d] * n), -1).reshape(-1, n)]
     starts.append(np.array([_baseline_u(p) for p in ps]))
-    scored = [(gap(res(u)), i) for i, u in enumerate(starts)]
-    scored.sort()
-    u0 = starts[scored[0][1]]
-    sol = least_squares(res, u0, bounds=(np.zeros(n), np.ones(n)), diff_step=0.02, max_nfev=6 * n + 4,
-                        x_scale=np.full(n, 0.1))
-    u = sol.x if gap(sol.fun) <= scored[0][0] else u0
+    scored = sorted((gap(res(u)), i) for i, u in enumerate(starts))
+    # refine from the best grid point, and for two or more parameters from the
+    # runner-up too (a valley across the grid); starts are nudged off the bounds,
+    # where a projected gradient can vanish at a corner that is not a minimum
+    best_gap, u, sol = scored[0][0], starts[scored[0][1]], None
+    for _, i in scored[:1 if n == 1 else 2]:
+        s = least_squares(res, np.clip(starts[i], 0.02, 0.98), bounds=(np.zeros(n), np.ones(n)), diff_step=0.02,
+                          max_nfev=8 * n + 4, x_scale=np.full(n, 0.1))
+        if sol is None or gap(s.fun) < gap(sol.fun):
+            sol = s
+    if gap(sol.fun) <= best_gap:
+        u = sol.x
     r = res(u)
     x = [_from_u(p, ui) for p, ui in zip(ps, u)]
     # standard errors: Gauss-Newton covariance in the unit cube, mapped to the
-    # parameters by the local slope of the (possibly logarithmic) map
-    J = sol.jac
+    # parameters by the local slope of the (possibly logarithmic) map; the
+    # Jacobian by steps into the cube from the final point (the solver's own is
+    # zeroed on a parameter that ends at its bound)
+    J = np.empty((len(r), n))
+    for i in range(n):
+        step = 0.02 if u[i] + 0.02 <= 1.0 else -0.02
+        du = np.array(u, float)
+        du[i] += step
+        J[:, i] = (res(du) - r) / step
     dof = max(len(r) - n, 1)
     s2 = float(r @ r) / dof
     try:
@@ -541,21 +583,39 @@ def fit(paths: list[str], candidate: tuple, n_elements: int, seg: int | None, ba
     return {"x": x, "stderr": se, "gap_train": gap(r)}
 
 
+def calibrate(case: Case, overrides: Mapping, effects: list[str], paths: list[str],
+              n_elements: int | None = None) -> dict:
+    """A validation variant's `effects` calibrated on its training logs
+    (`paths`) with the case's own model and `overrides`: the diagnosis's fit
+    on all components of those logs. Returns {"effects": {name: {param:
+    value}}, "stderr": {...}, "gap_before", "gap_train", "on"}."""
+    setup = Setup(n_elements, str(case.path), tuple(sorted(overrides.items())))
+    candidate = tuple(sorted(effects, key=list(EFFECTS).index))
+    base = {p: evaluate(p, {}, setup) for p in paths}
+    f = fit(list(paths), candidate, setup, None, base)
+    stderr: dict = {}
+    for (e, name, *_), s in zip(_params_of(candidate), f["stderr"]):
+        stderr.setdefault(e, {})[name] = s
+    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))
+    return {"effects": _effects_at(candidate, f["x"]), "stderr": stderr, "gap_train": f["gap_train"],
+            "gap_before": rms([gap(base[p].r) for p in paths]), "on": [Path(p).stem for p in paths]}
+
+
 def _score_candidate(job) -> dict:
     """One candidate on one family: fitted per fold and on all logs; each
     fold's held-out gap. Runs in a worker process (or a Dask worker)."""
-    paths, candidate, n_elements, base_gaps = job
+    paths, candidate, setup = job
     t_start = time.perf_counter()
-    base = {p: evaluate(p, {}, n_elements) for p in paths}
+    base = {p: evaluate(p, {}, setup) for p in paths}
     folds = []
     if len(paths) == 1:
         # two folds: fit on the A blocks, score on B, and the other way round
         p = paths[0]
         fs = []
         for seg in (0, 1):
-            f = fit(paths, candidate, n_elements, seg, base)
+            f = fit(paths, candidate, setup, seg, base)
             eff = _effects_at(candidate, f["x"])
-            R = _safe_eval(p, eff, n_elements, base[p])
+            R = _safe_eval(p, eff, setup, base[p])
             folds.append({"held_out": f"{Path(p).stem} segment {'BA'[seg]}", "params": f["x"],
                           "gap_train": gap(R.r[R.seg == seg]), "gap_heldout": gap(R.r[R.seg != seg])})
             fs.append(f)
@@ -568,18 +628,18 @@ def _score_candidate(job) -> dict:
         per_log = {}
         for k, p in enumerate(paths):
             train = [q for q in paths if q != p]
-            f = fit(train, candidate, n_elements, None, base)
+            f = fit(train, candidate, setup, None, base)
             eff = _effects_at(candidate, f["x"])
-            R = _safe_eval(p, eff, n_elements, base[p])
+            R = _safe_eval(p, eff, setup, base[p])
             folds.append({"held_out": Path(p).stem, "params": f["x"], "gap_train": f["gap_train"],
                           "gap_heldout": gap(R.r)})
     if len(paths) == 1:
         full = f      # one log: the parameters are those fitted on its training segment
     else:
-        full = fit(paths, candidate, n_elements, None, base)
+        full = fit(paths, candidate, setup, None, base)
         eff = _effects_at(candidate, full["x"])
         for p in paths:
-            per_log[Path(p).stem] = gap(_safe_eval(p, eff, n_elements, base[p]).r)
+            per_log[Path(p).stem] = gap(_safe_eval(p, eff, setup, base[p]).r)
     ps = _params_of(candidate)
     params, unc = {}, {}
     for (e, name, *_), v, s in zip(ps, full["x"], full["stderr"]):
@@ -598,20 +658,27 @@ def _score_candidate(job) -> dict:
 # ---- screening --------------------------------------------------------------------------
 
 def _screen_job(job):
-    path, effect, n_elements = job
-    base = evaluate(path, {}, n_elements)
+    """One effect's sensitivity directions on one log: per parameter, the
+    residual change at its probe value and at the probe mirrored about the
+    baseline (in the search's own scale), so that a response that bends, or
+    differs below and above the baseline, still spans the residual."""
+    path, effect, setup = job
+    base = evaluate(path, {}, setup)
     cols = []
-    for (eff, name, lo, hi, probe, log) in [(effect, *p) for p in CALIBRATE[effect]]:
-        p0 = _from_u((eff, name, lo, hi, probe, log), _baseline_u((eff, name, lo, hi, probe, log)))
-        R = _safe_eval(path, {effect: {name: probe}}, n_elements, base)
-        cols.append((R.r - base.r) / (probe - p0 if probe != p0 else 1.0))
+    for p in [(effect, *q) for q in CALIBRATE[effect]]:
+        u0 = _baseline_u(p)
+        for u in (_to_u(p, p[4]), 2.0 * u0 - _to_u(p, p[4])):
+            if not 0.0 <= u <= 1.0 or abs(u - u0) < 1e-9:
+                continue
+            R = _safe_eval(path, {effect: {p[1]: _from_u(p, u)}}, setup, base)
+            cols.append((R.r - base.r) / (u - u0))
     return path, effect, np.column_stack(cols)
 
 
-def screen_scores(paths, effects, n_elements, base: dict, mapper) -> dict:
+def screen_scores(paths, effects, setup, base: dict, mapper) -> dict:
     """Share of the baseline residual (all logs together) that each effect's
     sensitivity directions span: 1 - |r - S a|^2 / |r|^2 at the least-squares a."""
-    jobs = [(p, e, n_elements) for e in effects for p in paths]
+    jobs = [(p, e, setup) for e in effects for p in paths]
     sens: dict = {}
     for p, e, S in mapper(_screen_job, jobs):
         sens.setdefault(e, {})[p] = S
@@ -723,7 +790,7 @@ def _dask_mapper(address: str):
     return mapper
 
 
-def diagnose_family(paths: list[str], n_elements: int = DEFAULT_ELEMENTS, mapper: Callable | None = None,
+def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable | None = None,
                     progress: Callable[[str], None] | None = None) -> dict:
     """The where-map, ranking and gaps of one family of logs."""
     mapper = mapper or _local_mapper(None)
@@ -732,8 +799,8 @@ def diagnose_family(paths: list[str], n_elements: int = DEFAULT_ELEMENTS, mapper
     paths = [str(p) for p in paths]
     recs = {p: _record(p) for p in paths}
     kind = recs[paths[0]].info.test_kind
-    case = baseline_case(recs[paths[0]], n_elements)
-    base = {p: evaluate(p, {}, n_elements) for p in paths}
+    case = setup.case_for(recs[paths[0]])
+    base = {p: evaluate(p, {}, setup) for p in paths}
     obs = {p: _observed(p) for p in paths}
     rms = lambda v: float(np.sqrt(np.mean(np.square(v))))
     gap_before = rms([gap(base[p].r) for p in paths])
@@ -754,11 +821,11 @@ def diagnose_family(paths: list[str], n_elements: int = DEFAULT_ELEMENTS, mapper
             excluded[e] = why
         else:
             cands.append(e)
-    scores = screen_scores(paths, cands, n_elements, base, mapper)
+    scores = screen_scores(paths, cands, setup, base, mapper)
     order = sorted(cands, key=lambda e: -scores[e])
     keep = [e for e in order[:SCREEN_KEEP]]
     say("screen: " + ", ".join(f"{e} {scores[e]:.2f}" for e in order))
-    jobs = [(paths, (e,), n_elements, None) for e in keep]
+    jobs = [(paths, (e,), setup) for e in keep]
     singles = list(mapper(_score_candidate, jobs))
     singles.sort(key=lambda c: c["gap_after_heldout"] * (1 + PARAM_PENALTY * c["n_params"]))
     results = list(singles)
@@ -769,7 +836,7 @@ def diagnose_family(paths: list[str], n_elements: int = DEFAULT_ELEMENTS, mapper
         pairs = [(a, b) for i, a in enumerate(top) for b in top[i + 1:]]
         pairs = [tuple(sorted(pr, key=list(EFFECTS).index)) for pr in pairs]
         say("pairs: " + ", ".join("+".join(p) for p in pairs))
-        results += list(mapper(_score_candidate, [(paths, pr, n_elements, None) for pr in pairs]))
+        results += list(mapper(_score_candidate, [(paths, pr, setup) for pr in pairs]))
     for c in results:
         c["gap_before"] = gap_before_heldout if len(paths) == 1 else gap_before
         c["gap_before_train"] = gap_before_train
@@ -805,8 +872,15 @@ def diagnose_family(paths: list[str], n_elements: int = DEFAULT_ELEMENTS, mapper
     else:
         ranking = results + [none]
     remaining = ranking[0]["gap_after_heldout"]
+    # where the gap lies once the best explanation is in (its parameters fitted
+    # on all logs): what is left for the next effect to explain
+    after = {}
+    if ranking[0]["effect"] != "none":
+        best_eff = (ranking[0]["params"] if len(ranking[0]["effects"]) > 1
+                    else {ranking[0]["effect"]: ranking[0]["params"]})
+        after = {Path(p).stem: where_map(obs[p], _safe_eval(p, best_eff, setup, base[p])) for p in paths}
     return {"family": family_of(recs[paths[0]]), "kind": kind, "logs": [Path(p).stem for p in paths],
-            "n_elements": n_elements, "gap_definition": GAP_DEFINITION[kind],
+            "n_elements": setup.n_elements, "gap_definition": GAP_DEFINITION[kind],
             "gap_before": gap_before, "noise_floor": floor, "gap_real": not within_noise,
             "held_out_scheme": ("two folds over alternate %.0f s blocks of the one log (fit on A, score on B; "
                                 "fit on B, score on A)" % BLOCK_S
@@ -815,7 +889,16 @@ def diagnose_family(paths: list[str], n_elements: int = DEFAULT_ELEMENTS, mapper
             "not_applicable": excluded, "ranking": ranking,
             "remaining_unexplained": {"gap_m": remaining,
                                       "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
-            "gap": where, "wall_s": time.perf_counter() - t_start}
+            "gap": where, "gap_after_best": after, "wall_s": time.perf_counter() - t_start}
+
+
+def _bound_note(effect: str, name: str, v: float) -> str:
+    """' (at the search bound ...)' when a calibrated value ended on a bound:
+    the logs want it there or beyond, and its error is one-sided."""
+    for n, lo, hi, *_ in CALIBRATE.get(effect, []):
+        if n == name and (abs(v - lo) <= 1e-6 * (hi - lo) or abs(v - hi) <= 1e-6 * (hi - lo)):
+            return f" (at the search bound {lo:g}..{hi:g}: the logs want it there or beyond)"
+    return ""
 
 
 def findings(d: dict) -> list[str]:
@@ -830,10 +913,21 @@ def findings(d: dict) -> list[str]:
     p, se = top["params"], top["param_stderr"]
     if "+" not in top["effect"]:
         p, se = {top["effect"]: p}, {top["effect"]: se}
-    ptxt = ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}" for e, dd in p.items() for k, v in dd.items())
+    ptxt = ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}{_bound_note(e, k, v)}"
+                     for e, dd in p.items() for k, v in dd.items())
     out.append(head + f" Best explanation: {top['effect']} ({ptxt}); held-out gap {top['gap_before']:.3f} -> "
                f"{top['gap_after_heldout']:.3f} m ({100 * top['shrink_heldout']:.0f} % smaller), "
                f"{d['remaining_unexplained']['above_noise_m']:.3f} m of it above the noise floor.")
+    for log, w in (d.get("gap_after_best") or {}).items():
+        real = sorted((p for p in w["by_phase"] if p["real"]), key=lambda p: -p["gap_m"])
+        chans = sorted(((k, v) for k, v in w["by_channel"].items() if v["real"]), key=lambda kv: -kv[1]["gap_m"])
+        if not real and not chans:
+            out.append(f"{log}: with {top['effect']} the residual is within the noise in every phase and channel.")
+            continue
+        out.append(f"{log}: with {top['effect']} the gap is {w['gap_m']:.3f} m; what is left lies in "
+                   + ", ".join(f"{p['phase']} {p['gap_m']:.3f} m" for p in real[:3])
+                   + (" and in " + ", ".join(f"{k} {v['gap_m']:.3f} m" for k, v in chans[:2]) if chans else "")
+                   + ".")
     folds = top.get("folds") or []
     if len(d["logs"]) > 1 and folds:
         per = ", ".join(f"{f['held_out']} {f['gap_heldout']:.3f} m" for f in folds)
@@ -879,7 +973,7 @@ def diagnose(paths, out_dir: Path | None = None, n_elements: int = DEFAULT_ELEME
                "pair_gain": PAIR_GAIN,
                "scheduler": scheduler or "local processes"}
         for name, ps in fams.items():
-            d = diagnose_family(ps, n_elements, mapper, progress)
+            d = diagnose_family(ps, Setup(n_elements), mapper, progress)
             out["families"][name] = d
             out["gap"].update(d["gap"])
         out["findings"] = [f for d in out["families"].values() for f in findings(d)]
@@ -934,6 +1028,23 @@ def _params_text(c) -> str:
     return "; ".join(f"{e}.{k} = {v:.3g} &plusmn; {s[e][k]:.2g}" for e, d in p.items() for k, v in d.items())
 
 
+def _where_paragraph(head: str, w: dict) -> str:
+    """One log's where-map as a paragraph: channels, phases, stations, bands."""
+    e = _html.escape
+    cells = ", ".join(f"{e(k)} {_f(v['gap_m'])}/{_f(v['floor_m'])}{'' if v['real'] else ' (noise)'}"
+                      for k, v in w["by_channel"].items())
+    ph = ", ".join(f"{e(p['phase'])} {_f(p['gap_m'])}{'' if p['real'] else ' (noise)'}" for p in w["by_phase"])
+    st = ""
+    if w.get("by_station"):
+        st = "; by station (m along the hose: mean residual) " + ", ".join(
+            f"{r['station_from_m']:.0f}-{r['station_to_m']:.0f}: {r['mean_m']:+.2f}" for r in w["by_station"])
+    bz = w["by_band"].get("drogue z", {})
+    bands = ", ".join(f"{k} {_f(v['residual_m'])}/{_f(v['floor_m'])}" for k, v in bz.items())
+    return (f"<p><b>{e(head)}</b>: gap {_f(w['gap_m'])} m (floor {_f(w['noise_floor_m'])}); by channel "
+            f"(gap/floor) {cells}; by phase {ph}{st}; drogue z by band around "
+            f"{_f(w['fundamental_hz'], '{:.2f}')} Hz (residual/log's own) {bands}.</p>")
+
+
 def report_section(diag: dict, title: str = "Sim-to-real gap diagnosis") -> dict:
     """{"title", "html"} for validate's report (or diagnosis.html)."""
     e = _html.escape
@@ -959,23 +1070,20 @@ def report_section(diag: dict, title: str = "Sim-to-real gap diagnosis") -> dict
                      + ", ".join(f"{e(k)} {v:.2f}" for k, v in d["screen"].items()) + ". Not calibrated: "
                      + "; ".join(f"{e(k)} ({e(v)})" for k, v in d["not_applicable"].items()) + ".</p>")
         for log, w in d["gap"].items():
-            cells = ", ".join(f"{e(k)} {_f(v['gap_m'])}/{_f(v['floor_m'])}{'' if v['real'] else ' (noise)'}"
-                              for k, v in w["by_channel"].items())
-            ph = ", ".join(f"{e(p['phase'])} {_f(p['gap_m'])}{'' if p['real'] else ' (noise)'}" for p in w["by_phase"])
-            st = ""
-            if w.get("by_station"):
-                st = "; by station (m along the hose: mean residual) " + ", ".join(
-                    f"{r['station_from_m']:.0f}-{r['station_to_m']:.0f}: {r['mean_m']:+.2f}" for r in w["by_station"])
-            bz = w["by_band"].get("drogue z", {})
-            bands = ", ".join(f"{k} {_f(v['residual_m'])}/{_f(v['floor_m'])}" for k, v in bz.items())
-            parts.append(f"<p><b>{e(log)}</b>: gap {_f(w['gap_m'])} m (floor {_f(w['noise_floor_m'])}); by channel "
-                         f"(gap/floor) {cells}; by phase {ph}{st}; drogue z by band around "
-                         f"{_f(w['fundamental_hz'], '{:.2f}')} Hz (residual/log's own) {bands}.</p>")
+            parts.append(_where_paragraph(f"{log}, baseline", w))
+        for log, w in (d.get("gap_after_best") or {}).items():
+            parts.append(_where_paragraph(f"{log}, with {d['ranking'][0]['effect']}", w))
     if diag.get("findings"):
         parts.append("<h3>Findings</h3><ul>" + "".join(f"<li>{e(s)}</li>" for s in diag["findings"]) + "</ul>")
     if diag.get("selftest"):
         s = diag["selftest"]
-        parts.append(f"<h3>Proof on withheld effects</h3><p>{s['n']} generated logs, effect withheld: right effect "
-                     f"first in {100 * s['top1']:.0f} %, median held-out shrink {100 * s['median_shrink']:.0f} % "
-                     f"({s['wall_s']:.0f} s).</p>")
+        kinds = "; ".join(f"{e(k)}: {v['n']} logs, top-1 {100 * v['top1']:.0f} %, median shrink "
+                          f"{100 * v['median_shrink']:.0f} %" for k, v in s.get("by_kind", {}).items())
+        parts.append(f"<h3>Proof on withheld effects</h3><p>{s['n']} generated logs (the solver with one library "
+                     f"effect at random parameters, light turbulence, sensor noise and dropouts; "
+                     f"{s.get('n_elements_truth', '?')} elements against the diagnosis's "
+                     f"{s.get('n_elements_diagnosis', '?')}), effect withheld: right effect first in "
+                     f"{100 * s['top1']:.0f} %, median held-out shrink {100 * s['median_shrink']:.0f} % "
+                     f"(at least 70 % in {100 * s.get('share_shrink_ge_70pct', float('nan')):.0f} % of the logs); "
+                     f"{kinds}; {s['wall_s']:.0f} s.</p>")
     return {"title": title, "html": "\n".join(parts)}

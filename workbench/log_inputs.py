@@ -92,3 +92,13 @@ def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray, stiffness:
     steady = np.median(dd_all[pre], axis=0)
     path = _lowpass(tp, pp, PROBE_CUTOFF_HZ) + offset - steady + np.asarray(drogue_start, dtype=float)
     return EndConstraint(Trajectory(tp, path), t_on=t_on, t_off=t_off, stiffness=stiffness, damping=damping)
+
+
+def probe_held_drogue(case, model, rec: FlightRecord, drogue_start: np.ndarray) -> EndConstraint:
+    """`drogue_while_engaged` with the case's probe coupling: stiffness
+    probe_coupling_N_m and the damping of probe_coupling_damping_ratio on the
+    drogue's (or tip's) mass."""
+    k = float(case["model"]["probe_coupling_N_m"])
+    m_end = model.drogue.mass if model.drogue else model.tip_mass
+    c = 2.0 * float(case["model"]["probe_coupling_damping_ratio"]) * np.sqrt(k * m_end)
+    return drogue_while_engaged(rec, drogue_start, stiffness=k, damping=c)

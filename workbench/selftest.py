@@ -202,12 +202,12 @@ def _plan(n: int, seed: int) -> list[tuple[str, str, int]]:
 
 
 def _one(job) -> dict:
-    from workbench.diagnose import diagnose_family
+    from workbench.diagnose import Setup, diagnose_family
     kind, effect, seed, out_dir, n_elements = job
     t = time.perf_counter()
     path, truth = generate(kind, effect, seed, Path(out_dir))
     t_gen = time.perf_counter() - t
-    d = diagnose_family([str(path)], n_elements, mapper=lambda fn, jobs: [fn(j) for j in jobs])
+    d = diagnose_family([str(path)], Setup(n_elements), mapper=lambda fn, jobs: [fn(j) for j in jobs])
     top = d["ranking"][0]
     found = next((c for c in d["ranking"] if c["effect"] == effect), None)
     return {**truth, "log": path.name, "top": top["effect"], "top_params": top["params"],

@@ -54,5 +54,9 @@ def test_diagnosis_json_contract_and_dask_scheduler(tmp_path):
     w = js["gap"][path.stem]
     assert {"by_channel", "by_station", "by_phase", "by_band"} <= set(w)
     assert w["real"] and w["gap_m"] > w["noise_floor_m"]
+    # what is left once the best explanation is in: a smaller gap, and said so
+    (fam,) = js["families"].values()
+    assert fam["gap_after_best"][path.stem]["gap_m"] < 0.3 * w["gap_m"]
+    assert any(f.startswith(f"{path.stem}: with drogue_drag") for f in js["findings"])
     assert (tmp_path / "out" / "diagnosis.html").read_text().count("<table>") >= 1
     assert out["scheduler"] == cluster.scheduler_address
