@@ -77,9 +77,9 @@ def compare_pitch_doublet(log: FlightRecord, sim: FlightRecord) -> dict[str, Any
 def compare_trail(log: FlightRecord, sim: FlightRecord) -> dict[str, Any]:
     a_log, a_sim = analyze_record(log), analyze_record(sim)
     out: dict[str, Any] = {}
-    _side_by_side(out, a_log, a_sim, ["drogue_steady_x_m", "drogue_steady_z_m"])
-    out["drogue_steady_x_error_m"] = _diff(a_sim["drogue_steady_x_m"], a_log["drogue_steady_x_m"])
-    out["drogue_steady_z_error_m"] = _diff(a_sim["drogue_steady_z_m"], a_log["drogue_steady_z_m"])
+    _side_by_side(out, a_log, a_sim, ["drogue_steady_x_m", "drogue_steady_y_m", "drogue_steady_z_m"])
+    for c in "xyz":
+        out[f"drogue_steady_{c}_error_m"] = _diff(a_sim[f"drogue_steady_{c}_m"], a_log[f"drogue_steady_{c}_m"])
     hose = log.topic("/video/hose")
     _, xs, zs = _last_frame_shape(sim)
     se = M.shape_error(hose["x_m"], hose["z_m"], xs, zs)

@@ -134,6 +134,8 @@ SCHEMA = {
         "drogue_drag_scale": Field(NUM, None, _positive),
         "reel": Field(str, None, _one_of("locked", "drum", "from_log")),
         "tune_drogue_lift_on": Field(list, []),
+        "calibrate": Field(list, []),
+        "calibrate_on": Field(list, []),
     },
     "gates": {
         "metric": Field(str, required=True),
@@ -161,6 +163,17 @@ class Case:
 
     def __getitem__(self, table: str) -> dict:
         return self.tables[table]
+
+
+def _check_calibration(p: Path, v: dict) -> None:
+    from workbench.diagnose import CALIBRATE, NOT_CALIBRATED
+    where = f"{p}: [[variants]] '{v['id']}'"
+    if not (v["calibrate"] and v["calibrate_on"]):
+        raise InputError(f"{where} needs both calibrate (effects) and calibrate_on (training logs)")
+    for e in v["calibrate"]:
+        if e not in CALIBRATE:
+            why = NOT_CALIBRATED.get(e, f"known: {', '.join(CALIBRATE)}")
+            raise InputError(f"{where} calibrate: effect {e!r} cannot be calibrated ({why})")
 
 
 def _check_table(path: str, name: str, raw: dict) -> dict:
@@ -233,6 +246,9 @@ def load_case(path: str | Path) -> Case:
     ids = [v["id"] for v in tables["variants"]]
     if len(set(ids)) != len(ids):
         raise InputError(f"{p}: [[variants]] ids must be unique, got {ids}")
+    for v in tables["variants"]:
+        if v["calibrate"] or v["calibrate_on"]:
+            _check_calibration(p, v)
     for g in tables["gates"]:
         if g["max"] is None and g["min"] is None:
             raise InputError(f"{p}: [[gates]] metric '{g['metric']}' needs a max or a min threshold")

@@ -5,7 +5,10 @@ the case and the log (condition, tow-point motion, reel payout, the drogue on
 the probe), solved for its steady trail, run through the log's time span,
 saved in the log contract and compared with the log by `flighttest.compare`.
 Variants that tune a parameter (the drogue lift) are tuned first, on the
-logs they name, and gated on the others.
+logs they name, and gated on the others. Variants that `calibrate` effects
+(what `workbench diagnose` found) have their parameters fitted by the
+diagnosis's own least squares on the `calibrate_on` logs, with the case's
+model, and are gated on the logs they were not fitted to.
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
 from workbench import log_inputs
 from workbench.cases import Case, build_model, case_log_paths, load_case
+from workbench.effects_case import with_effects
 from workbench.effects_compare import apply_comparison_effects
 from workbench.errors import InputError
 from workbench.simlog import result_to_record
@@ -72,6 +76,7 @@ class CaseOutcome:
     runs: list[Run]
     gates: list[GateResult]
     tuned: dict = field(default_factory=dict)
+    calibrated: dict = field(default_factory=dict)   # variant id -> the diagnosis fit of its effects
     error: str | None = None
 
     @property
@@ -81,7 +86,13 @@ class CaseOutcome:
 
 def variants_of(case: Case) -> list[dict]:
     v = case["variants"]
-    return v if v else [{"id": "baseline", "label": "baseline", "tune_drogue_lift_on": []}]
+    return v if v else [{"id": "baseline", "label": "baseline", "tune_drogue_lift_on": [], "calibrate": [],
+                         "calibrate_on": []}]
+
+
+def training_logs(variant: dict) -> list[str]:
+    """The test ids a variant was tuned or calibrated on (not gated on)."""
+    return list(variant.get("tune_drogue_lift_on") or []) + list(variant.get("calibrate_on") or [])
 
 
 def _overrides(variant: dict, tuned: dict) -> dict:
@@ -106,10 +117,7 @@ def simulate_against(case: Case, variant: dict, rec: FlightRecord, tuned: dict) 
     t0 = float(model.tow.t[0])
     s0 = solve_static(model, t0)
     if case["model"]["drogue_after_contact"] == "from_log":
-        k = float(case["model"]["probe_coupling_N_m"])
-        m_end = model.drogue.mass if model.drogue else model.tip_mass
-        c = 2.0 * float(case["model"]["probe_coupling_damping_ratio"]) * np.sqrt(k * m_end)
-        model.end = log_inputs.drogue_while_engaged(rec, s0.pos[-1], stiffness=k, damping=c)
+        model.end = log_inputs.probe_held_drogue(case, model, rec, s0.pos[-1])
     res = simulate(model, t0 + _run_duration(case, rec), s0, record_dt=float(case["run"]["record_dt_s"]))
     options = {"n_elements": model.n_elements, "reel": model.reel.mode,
                "drogue_lift_scale": model.drogue.lift_scale if model.drogue else None,
@@ -180,6 +188,8 @@ def _one_run(args) -> Run:
     if len(args) == 3:
         return _one_ringdown(args)
     case, variant, log_path, tuned = args
+    # a calibrated variant carries its fitted effects over the case's own
+    case = with_effects(case, variant.get("effects") or {})
     rec = read_record(log_path)
     t0 = time.perf_counter()
     res, options = simulate_against(case, variant, rec, tuned)
@@ -189,7 +199,7 @@ def _one_run(args) -> Run:
     metrics = compare_records(apply_comparison_effects(rec, case["effects"]), sim_rec)
     if case.kind == "engagement":
         metrics.update(_whip_metrics(res, rec))
-    held_out = rec.info.test_id not in variant.get("tune_drogue_lift_on", [])
+    held_out = rec.info.test_id not in training_logs(variant)
     return Run(case.id, variant["id"], rec.info.test_id, str(log_path), metrics, res, wall, options, held_out)
 
 
@@ -265,19 +275,26 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             continue
         try:
             records = {p: read_record(p) for p in paths}
-            tuned = {}
+            tuned, calibrated, variants = {}, {}, []
             for v in variants_of(case):
+                for key in ("tune_drogue_lift_on", "calibrate_on"):
+                    if v.get(key) and not set(v[key]) <= {r.info.test_id for r in records.values()}:
+                        raise InputError(f"{case.path}: variant '{v['id']}' {key} names logs {v[key]} not all "
+                                         f"among the case's logs")
                 if v.get("tune_drogue_lift_on"):
                     tr = [r for r in records.values() if r.info.test_id in v["tune_drogue_lift_on"]]
-                    if len(tr) != len(v["tune_drogue_lift_on"]):
-                        raise InputError(f"{case.path}: variant '{v['id']}' tunes on logs "
-                                         f"{v['tune_drogue_lift_on']} not all among the case's logs")
                     tuned[v["id"]] = tune_drogue_lift(case, v, tr)
+                if v.get("calibrate"):
+                    from workbench.diagnose import calibrate
+                    tr = [p for p, r in records.items() if r.info.test_id in v["calibrate_on"]]
+                    calibrated[v["id"]] = calibrate(case, _overrides(v, {}), v["calibrate"], tr)
+                    v = dict(v, effects=calibrated[v["id"]]["effects"])
+                variants.append(v)
         except (LogError, InputError, StaticSolveError) as exc:
             outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc))
             continue
-        outcomes[case.id] = CaseOutcome(case, [], [], tuned=tuned)
-        for v in variants_of(case):
+        outcomes[case.id] = CaseOutcome(case, [], [], tuned=tuned, calibrated=calibrated)
+        for v in variants:
             for p in paths:
                 jobs.append((case, v, p, tuned))
     workers = workers or max(1, min(len(jobs), os.cpu_count() or 1))
@@ -335,7 +352,7 @@ def results_dict(outcomes: list[CaseOutcome]) -> dict:
     for oc in outcomes:
         cases.append({
             "id": oc.case.id, "title": oc.case.title, "kind": oc.case.kind, "file": oc.case.path,
-            "passed": oc.passed, "error": oc.error, "tuned": oc.tuned,
+            "passed": oc.passed, "error": oc.error, "tuned": oc.tuned, "calibrated": oc.calibrated,
             "metrics": {f"{r.variant}/{r.log_id}/{k}": v for r in oc.runs for k, v in r.metrics.items()
                         if not isinstance(v, (list, dict))},
             "runs": [{"variant": r.variant, "log": r.log_id, "log_file": r.log_path, "held_out": r.held_out,

@@ -65,6 +65,10 @@ def test_demo_case_builds_the_data_sheet_hose():
     ('kind = "pitch_doublet"', 'kind = "loop"', r"kind must be one of"),
     ("altitude_ft = 15050", "altitude_ft = true", r"\[condition\] altitude_ft must be a number"),
     ("[tow_motion]", "[tow_motion\n", r"not valid TOML"),
+    ("[run]", '[[variants]]\nid = "c"\ncalibrate = ["turbulence"]\ncalibrate_on = ["X"]\n\n[run]',
+     r"\[\[variants\]\] 'c' calibrate: effect 'turbulence' cannot be calibrated \(a random field"),
+    ("[run]", '[[variants]]\nid = "c"\ncalibrate = ["drogue_lift"]\n\n[run]',
+     r"'c' needs both calibrate \(effects\) and calibrate_on"),
 ])
 def test_bad_case_gives_one_line_error(tmp_path, old, new, pattern):
     p = edited(tmp_path, old, new)

@@ -84,3 +84,65 @@ def test_failing_gate_exits_one_and_names_it(tmp_path):
     assert "needs <= 0.001" in res.output
     junit = (out / "junit.xml").read_text()
     assert 'failures="1"' in junit
+
+
+CALIBRATED = """
+id = "trail-calibrated"
+title = "lift calibrated on one trail, gated on another"
+kind = "trail"
+logs = ["flight/TR-KDC10-E7.mcap", "flight/TR-KDC10-E11.mcap"]
+
+[hardware]
+hose = "kdc10_pod"
+drogue = "kdc10_pod"
+
+[condition]
+from_log = true
+
+[model]
+n_elements = 12
+
+[tow_motion]
+kind = "from_log"
+
+[run]
+duration_s = 0.5
+
+[[variants]]
+id = "calibrated"
+calibrate = ["drogue_lift"]
+calibrate_on = ["TR-KDC10-E7"]
+
+[[variants]]
+id = "wt_lift"
+drogue_lift_scale = 1.0
+
+[[gates]]
+metric = "trail_shape_rms_error_m"
+variant = "calibrated"
+max = 1.0
+source = "test threshold"
+"""
+
+
+def test_calibrated_variant_is_fitted_on_its_training_log_and_gated_on_the_other(tmp_path):
+    # The diagnosis's fit of the lift on E7 (its shape and drogue) must carry to
+    # E11, flown at another condition: the held-out shape error falls below the
+    # wind-tunnel lift's (which puts the drogue ~2.8 m high, paper Fig. 14).
+    case = tmp_path / "cal.toml"
+    case.write_text(CALIBRATED)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(cli, ["validate", str(case), "--out", str(out), "--no-progress"])
+    assert res.exit_code == 0, res.output
+    (c,) = json.loads((out / "results.json").read_text())["cases"]
+    cal = c["calibrated"]["calibrated"]
+    assert cal["on"] == ["TR-KDC10-E7"]
+    scale = cal["effects"]["drogue_lift"]["scale"]
+    assert 0.0 <= scale < 1.0 and 0.0 < cal["stderr"]["drogue_lift"]["scale"] < 0.5
+    assert cal["gap_train"] < 0.5 * cal["gap_before"]
+    held = {(r["variant"], r["log"]): r for r in c["runs"]}
+    assert not held[("calibrated", "TR-KDC10-E7")]["held_out"] and held[("calibrated", "TR-KDC10-E11")]["held_out"]
+    err = {v: held[(v, "TR-KDC10-E11")]["metrics"]["trail_shape_rms_error_m"] for v in ("calibrated", "wt_lift")}
+    assert err["calibrated"] < 0.5 * err["wt_lift"]
+    assert c["gates"][0]["logs"] == ["TR-KDC10-E11"]
+    assert "calibrated on TR-KDC10-E7" in (out / "report.html").read_text()
