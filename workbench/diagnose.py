@@ -619,11 +619,11 @@ def _score_candidate(job) -> dict:
             folds.append({"held_out": f"{Path(p).stem} segment {'BA'[seg]}", "params": f["x"],
                           "gap_train": gap(R.r[R.seg == seg]), "gap_heldout": gap(R.r[R.seg != seg])})
             fs.append(f)
-        per_log = {Path(p).stem: gap(R.r)}
         # reported: the mean of the two folds' values, their spread folded into the error
         f = {"x": [0.5 * (a + b) for a, b in zip(fs[0]["x"], fs[1]["x"])],
              "stderr": [math.hypot(0.5 * (sa + sb), 0.5 * (a - b))
                         for a, b, sa, sb in zip(fs[0]["x"], fs[1]["x"], fs[0]["stderr"], fs[1]["stderr"])]}
+        per_log = {Path(p).stem: gap(_safe_eval(p, _effects_at(candidate, f["x"]), setup, base[p]).r)}
     else:
         per_log = {}
         for k, p in enumerate(paths):
