@@ -290,7 +290,7 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
                     calibrated[v["id"]] = calibrate(case, _overrides(v, {}), v["calibrate"], tr)
                     v = dict(v, effects=calibrated[v["id"]]["effects"])
                 variants.append(v)
-        except (LogError, InputError, StaticSolveError) as exc:
+        except (LogError, InputError, StaticSolveError, DivergenceError) as exc:
             outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc))
             continue
         outcomes[case.id] = CaseOutcome(case, [], [], tuned=tuned, calibrated=calibrated)
