@@ -8,12 +8,8 @@ from workbench.cli import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 
-CASE = """
-id = "trail-mini"
-title = "one steady trail, baseline model"
-kind = "trail"
-logs = ["flight/TR-KDC10-E7.mcap"]
-
+# the KDC-10 pod hose and drogue at each log's condition, 12 elements
+TRAIL = """
 [hardware]
 hose = "kdc10_pod"
 drogue = "kdc10_pod"
@@ -23,7 +19,14 @@ from_log = true
 
 [model]
 n_elements = 12
-drogue_lift_scale = 0.0
+"""
+
+CASE = """
+id = "trail-mini"
+title = "one steady trail, baseline model"
+kind = "trail"
+logs = ["flight/TR-KDC10-E7.mcap"]
+""" + TRAIL + """drogue_lift_scale = 0.0
 
 [model.structure]
 EI_N_m2 = 50.0
@@ -91,17 +94,7 @@ id = "trail-calibrated"
 title = "lift calibrated on one trail, gated on another"
 kind = "trail"
 logs = ["flight/TR-KDC10-E7.mcap", "flight/TR-KDC10-E11.mcap"]
-
-[hardware]
-hose = "kdc10_pod"
-drogue = "kdc10_pod"
-
-[condition]
-from_log = true
-
-[model]
-n_elements = 12
-
+""" + TRAIL + """
 [tow_motion]
 kind = "from_log"
 
