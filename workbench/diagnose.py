@@ -150,9 +150,17 @@ def baseline_case(rec: FlightRecord, n_elements: int | None = None) -> Case:
         raise InputError(f"{rec.path}: the test card names no hose")
     tables = dict(case.tables)
     tables["hardware"] = {k: raw.get(k) or None for k in ("hose", "drogue", "reel", "tanker")}
-    if n_elements:
-        tables["model"] = dict(tables["model"], n_elements=int(n_elements))
-    return dataclasses.replace(case, id=f"{case.id}:{rec.info.test_id}", path=str(rec.path), tables=tables)
+    case = dataclasses.replace(case, id=f"{case.id}:{rec.info.test_id}", path=str(rec.path), tables=tables)
+    return _with_elements(case, n_elements)
+
+
+def _with_elements(case: Case, n_elements: int | None) -> Case:
+    """The case with `n_elements` hose elements (None: its own)."""
+    if not n_elements:
+        return case
+    tables = dict(case.tables)
+    tables["model"] = dict(tables["model"], n_elements=int(n_elements))
+    return dataclasses.replace(case, tables=tables)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -169,12 +177,7 @@ class Setup:
     def case_for(self, rec: FlightRecord) -> Case:
         if self.case_path is None:
             return baseline_case(rec, self.n_elements)
-        case = load_case(self.case_path)
-        if self.n_elements:
-            tables = dict(case.tables)
-            tables["model"] = dict(tables["model"], n_elements=int(self.n_elements))
-            case = dataclasses.replace(case, tables=tables)
-        return case
+        return _with_elements(load_case(self.case_path), self.n_elements)
 
 
 def family_of(rec: FlightRecord) -> str:
@@ -422,10 +425,7 @@ def _simulate_frozen(path: str, frozen: tuple, setup: Setup):
         line = pts[:-1] if model.drogue is not None else pts
         return {"t": np.array([t0]), "end": pts[-1:].copy(), "hose": lambda t, line=line: line}
     if case["model"]["drogue_after_contact"] == "from_log":
-        if setup.case_path is None:
-            model.end = log_inputs.drogue_while_engaged(rec, s0.pos[-1])
-        else:
-            model.end = log_inputs.probe_held_drogue(case, model, rec, s0.pos[-1])
+        model.end = log_inputs.probe_held_drogue(case, model, rec, s0.pos[-1])
     t_end = float(rec.topic("/ors/drogue").index[-1])
     res = simulate(model, t_end, s0, record_dt=float(case["run"]["record_dt_s"]))
     ts = res.t
@@ -486,7 +486,7 @@ def _safe_eval(path, effects, setup, like: Residual | None):
         return dataclasses.replace(like, r=np.full_like(like.r, BAD))
 
 
-def gap(r: np.ndarray) -> float:
+def gap(r) -> float:
     return float(np.sqrt(np.mean(np.square(r)))) if len(r) else float("nan")
 
 
@@ -593,12 +593,9 @@ def calibrate(case: Case, overrides: Mapping, effects: list[str], paths: list[st
     candidate = tuple(sorted(effects, key=list(EFFECTS).index))
     base = {p: evaluate(p, {}, setup) for p in paths}
     f = fit(list(paths), candidate, setup, None, base)
-    stderr: dict = {}
-    for (e, name, *_), s in zip(_params_of(candidate), f["stderr"]):
-        stderr.setdefault(e, {})[name] = s
-    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))
-    return {"effects": _effects_at(candidate, f["x"]), "stderr": stderr, "gap_train": f["gap_train"],
-            "gap_before": rms([gap(base[p].r) for p in paths]), "on": [Path(p).stem for p in paths]}
+    return {"effects": _effects_at(candidate, f["x"]), "stderr": _effects_at(candidate, f["stderr"]),
+            "gap_train": f["gap_train"], "gap_before": gap([gap(base[p].r) for p in paths]),
+            "on": [Path(p).stem for p in paths]}
 
 
 def _score_candidate(job) -> dict:
@@ -640,17 +637,12 @@ def _score_candidate(job) -> dict:
         eff = _effects_at(candidate, full["x"])
         for p in paths:
             per_log[Path(p).stem] = gap(_safe_eval(p, eff, setup, base[p]).r)
-    ps = _params_of(candidate)
-    params, unc = {}, {}
-    for (e, name, *_), v, s in zip(ps, full["x"], full["stderr"]):
-        params.setdefault(e, {})[name] = v
-        unc.setdefault(e, {})[name] = s
-    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))
-    return {"effect": "+".join(candidate), "effects": list(candidate), "n_params": len(ps),
+    params, unc = _effects_at(candidate, full["x"]), _effects_at(candidate, full["stderr"])
+    return {"effect": "+".join(candidate), "effects": list(candidate), "n_params": len(_params_of(candidate)),
             "params": params if len(candidate) > 1 else params[candidate[0]],
             "param_stderr": unc if len(candidate) > 1 else unc[candidate[0]],
-            "gap_after_train": rms([f["gap_train"] for f in folds]),
-            "gap_after_heldout": rms([f["gap_heldout"] for f in folds]),
+            "gap_after_train": gap([f["gap_train"] for f in folds]),
+            "gap_after_heldout": gap([f["gap_heldout"] for f in folds]),
             "gap_after_all_fit_per_log": per_log, "folds": folds,
             "wall_s": time.perf_counter() - t_start}
 
@@ -802,9 +794,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     case = setup.case_for(recs[paths[0]])
     base = {p: evaluate(p, {}, setup) for p in paths}
     obs = {p: _observed(p) for p in paths}
-    rms = lambda v: float(np.sqrt(np.mean(np.square(v))))
-    gap_before = rms([gap(base[p].r) for p in paths])
-    floor = rms([gap(base[p].floor) for p in paths])
+    gap_before = gap([gap(base[p].r) for p in paths])
+    floor = gap([gap(base[p].floor) for p in paths])
     if len(paths) == 1:
         R = base[paths[0]]
         gap_before_heldout = gap_before_train = gap(R.r)
