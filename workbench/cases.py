@@ -394,7 +394,7 @@ def _structure(case: Case, hose_id: str, record) -> dict:
         return {"EI": float(st["EI_N_m2"]), "EA": float(st["EA_N"]),
                 "bending_damping": float(st["bending_damping_N_m2_s"]),
                 "axial_damping": float(st["axial_damping_N_s"])}
-    from workbench.properties import load_library
+    from workbench.properties.store import load_library
     temp = hose_temperature_F(case, record)
     if temp is None:
         raise InputError(f"{case.path}: [model.structure] uses the property table but no hose temperature "

@@ -17,22 +17,32 @@ def properties() -> None:
 @properties.command()
 @click.option("--logs", "logs_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Folder of ring-down records (*.mcap) [default: flighttest/logs/ringdown].")
-@click.option("--out", "out_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Property file to write [default: cases/properties/hose_properties.json].")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Folder to write hose_properties.json in [default: reports/out/properties].")
+@click.option("--update-committed", is_flag=True,
+              help="Overwrite the committed table cases/properties/hose_properties.json instead.")
 @click.option("--hardware", "hardware_file", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Data sheets [default: flighttest/logs/hardware.toml].")
 @click.option("--element-counts", default=None,
               help="Comma-separated element counts to tune [default: 4,6,8,12,16,24,32,48,64]; "
                    "must include the verification's 8.")
 @click.option("--quiet", is_flag=True, help="Only the summary, not every step.")
-def build(logs_dir: Path | None, out_file: Path | None, hardware_file: Path | None,
+def build(logs_dir: Path | None, out_dir: Path | None, update_committed: bool, hardware_file: Path | None,
           element_counts: str | None, quiet: bool) -> None:
-    """Measure the ring-downs, tune the element constants, verify, write the tables."""
-    from workbench import properties as P
-    from workbench.hardware import load_hardware
+    """Measure the ring-downs, tune the element constants, verify, write the tables.
 
+    The committed table is only overwritten with --update-committed: a build
+    writes under --out otherwise."""
+    from flighttest.mcap_io import LogError
+    from workbench.hardware import load_hardware
+    from workbench.properties.build import DEFAULT_LOGS, ELEMENT_COUNTS, build_properties
+    from workbench.properties.store import DEFAULT_OUT, DEFAULT_PATH, write_properties
+
+    if update_committed and out_dir is not None:
+        raise click.UsageError("give --out or --update-committed, not both")
+    target = DEFAULT_PATH if update_committed else (out_dir or DEFAULT_OUT) / DEFAULT_PATH.name
     t0 = time.perf_counter()
-    counts = P.ELEMENT_COUNTS
+    counts = ELEMENT_COUNTS
     if element_counts is not None:
         try:
             counts = tuple(int(x) for x in element_counts.split(",") if x.strip())
@@ -46,12 +56,12 @@ def build(logs_dir: Path | None, out_file: Path | None, hardware_file: Path | No
 
     try:
         hw = load_hardware(hardware_file)
-        doc = P.build_properties(logs_dir if logs_dir is not None else P.DEFAULT_LOGS, hw,
-                                 element_counts=counts, progress=progress)
-        path = P.write_properties(doc, out_file if out_file is not None else P.DEFAULT_PATH)
+        doc = build_properties(logs_dir if logs_dir is not None else DEFAULT_LOGS, hw,
+                               element_counts=counts, progress=progress)
+        path = write_properties(doc, target)
     except InputError as exc:
         raise click.ClickException(str(exc)) from None
-    except P.LogError as exc:
+    except LogError as exc:
         raise click.ClickException(str(exc)) from None
     except RuntimeError as exc:   # a tuning or equilibrium that did not converge
         raise click.ClickException(f"property build failed: {exc}") from None
@@ -92,10 +102,10 @@ def build(logs_dir: Path | None, out_file: Path | None, hardware_file: Path | No
 def lookup(hose: str, temperature_f: float, element_length_m: float, prop_file: Path | None,
            allow_extrapolation: bool) -> None:
     """Element constants of HOSE at TEMPERATURE_F (deg F) for ELEMENT_LENGTH_M (m)."""
-    from workbench import properties as P
+    from workbench.properties.store import DEFAULT_PATH, load_library
 
     try:
-        lib = P.load_library(prop_file if prop_file is not None else P.DEFAULT_PATH)
+        lib = load_library(prop_file if prop_file is not None else DEFAULT_PATH)
         ka, ca, kb, cb = lib.constants(hose, temperature_f, element_length_m, allow_extrapolation)
     except (InputError, ValueError) as exc:
         raise click.ClickException(str(exc)) from None

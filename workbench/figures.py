@@ -168,8 +168,8 @@ def ringdown_figures(outcome, out_dir: Path) -> list[Path]:
     """Paper Fig. 6 and 7 for the case's hose from the property document, the
     constants against element length, and Fig. 9: measured against simulated
     frequency squared and damping at each tested temperature."""
-    from workbench import properties_report as pr
-    from workbench.properties import read_properties
+    from workbench.properties import report as pr
+    from workbench.properties.store import read_properties
     doc = read_properties()
     hose = outcome.case["hardware"]["hose"]
     paths = []

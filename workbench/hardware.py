@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from workbench.errors import InputError
+from workbench.provenance import FileCache
 
 FT = 0.3048
 DEFAULT_PATH = Path(__file__).resolve().parent.parent / "flighttest" / "logs" / "hardware.toml"
@@ -84,8 +85,16 @@ def _num(path, section, key, raw, required=True, positive=True):
     return float(v)
 
 
+_sheets = FileCache()
+
+
 def load_hardware(path: str | Path | None = None) -> Hardware:
-    p = Path(path) if path is not None else DEFAULT_PATH
+    """The data sheets of `path` (default: the committed hardware.toml). Read once
+    per version of the file: case building calls this inside fit loops."""
+    return _sheets.get(path if path is not None else DEFAULT_PATH, _read_hardware)
+
+
+def _read_hardware(p: Path) -> Hardware:
     try:
         raw = tomllib.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:

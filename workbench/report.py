@@ -98,7 +98,7 @@ def _run_table(case_json: dict) -> list[dict]:
 def properties_section() -> dict:
     """What the hose property tables rest on: per hose, measured or derived,
     and every assumption no test checked (from the property document)."""
-    from workbench.properties import read_properties
+    from workbench.properties.store import read_properties
     doc = read_properties()
     parts = ["<p>Structural constants of every case marked <code>source = \"table\"</code> come from "
              "<code>cases/properties/hose_properties.json</code>, built by <code>workbench properties "

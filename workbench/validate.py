@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 import os
-import subprocess
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -34,6 +33,7 @@ from workbench.cases import Case, build_model, case_log_paths, load_case
 from workbench.effects_case import with_effects
 from workbench.effects_compare import apply_comparison_effects
 from workbench.errors import InputError
+from workbench.provenance import code_version, json_safe
 from workbench.simlog import result_to_record
 
 TRAIL_RUN_S = 2.0   # a steady trail is the static answer; a short run checks it holds
@@ -168,7 +168,9 @@ def _one_ringdown(args) -> Run:
     case's N-element bench rig with the property table at the group's mean
     temperature, simulated and measured like the bench records."""
     from workbench.hardware import load_hardware
-    from workbench.properties import BenchRig, load_library, verify_group
+    from workbench.properties.rig import BenchRig
+    from workbench.properties.store import load_library
+    from workbench.properties.verify import verify_group
     case, variant, group = args
     sheet = load_hardware().get("hose", group["hose"])
     hanging = group["test_kind"] == "ringdown_axial"
@@ -264,7 +266,7 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             outcomes[case.id] = CaseOutcome(case, [], [], error="the case names no logs")
             continue
         if case.kind in RINGDOWN_KINDS:
-            from workbench.properties import group_measurements, measure_records
+            from workbench.properties.measure import group_measurements, measure_records
             try:
                 groups = group_measurements(measure_records(paths))
             except (LogError, InputError, ValueError) as exc:
@@ -326,28 +328,8 @@ def _collect(outcomes, job, get, bar):
     bar.update(1)
 
 
-def code_version() -> str:
-    try:
-        root = Path(__file__).resolve().parent.parent
-        rev = subprocess.run(["git", "-C", str(root), "describe", "--always", "--dirty"], capture_output=True,
-                             text=True, timeout=5)
-        return rev.stdout.strip() or "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
 def results_dict(outcomes: list[CaseOutcome]) -> dict:
     """The machine-readable results (results.json)."""
-    def clean(v):
-        if isinstance(v, float):
-            return v if math.isfinite(v) else None
-        if isinstance(v, dict):
-            return {k: clean(x) for k, x in v.items()}
-        if isinstance(v, (list, tuple)):
-            return [clean(x) for x in v]
-        if isinstance(v, (np.floating, np.integer)):
-            return clean(v.item())
-        return v
     cases = []
     for oc in outcomes:
         cases.append({
@@ -362,7 +344,7 @@ def results_dict(outcomes: list[CaseOutcome]) -> dict:
                        "kind": g.kind, "passed": g.passed, "margin": g.margin, "source": g.source,
                        "logs": g.logs} for g in oc.gates],
         })
-    return clean({"passed": all(c["passed"] for c in cases), "code_version": code_version(),
+    return json_safe({"passed": all(c["passed"] for c in cases), "code_version": code_version(),
                   "data_note": "Flight and bench records stand in for non-public program data: they come "
                                "from an independent higher-fidelity model.",
                   "cases": cases})

@@ -11,7 +11,7 @@ from workbench.cases import build_model, case_log_paths, load_case
 from workbench.cli import cli
 from workbench.errors import InputError
 from workbench.hardware import load_hardware
-from workbench.properties import load_library
+from workbench.properties.store import load_library
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "cases" / "demo" / "kdc10_doublet_demo.toml"

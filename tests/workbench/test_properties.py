@@ -1,6 +1,7 @@
 """Hose property tables: look-up rules, measurement, tuning, the committed data file
 and the paper's Fig. 9 verification."""
 import math
+import os
 import re
 import shutil
 from pathlib import Path
@@ -12,11 +13,18 @@ from click.testing import CliRunner
 
 from flighttest.mcap_io import make_record, read_record, write_record
 from solver.hose import HoseProperties
-from solver.model import Clamp, Model
+from solver.model import Model
 from solver.properties import PropertyLibrary, PropertyTable
-from workbench import properties as P
 from workbench.cli_properties import properties
+from workbench import hardware, report
 from workbench.hardware import load_hardware
+from workbench.properties import build, store
+from workbench.properties.measure import measure_ringdown
+from workbench.properties.rig import BenchRig, rig_mode
+from workbench.properties.store import DEFAULT_PATH, load_library, read_properties, write_properties
+from workbench.properties.tune import axial_spring_guess, derive_hose, tune_bending
+from workbench.properties.verify import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE, simulate_ringdown
+from workbench.provenance import code_version
 
 ROOT = Path(__file__).resolve().parents[2]
 RINGDOWN = ROOT / "flighttest" / "logs" / "ringdown"
@@ -24,7 +32,7 @@ RINGDOWN = ROOT / "flighttest" / "logs" / "ringdown"
 
 @pytest.fixture(scope="module")
 def doc():
-    return P.read_properties(P.DEFAULT_PATH)
+    return read_properties(DEFAULT_PATH)
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +91,7 @@ def test_table_round_trips_and_refuses_bad_arrays():
 def test_derived_hose_scales_by_second_moment_of_area(hw):
     src = small_table("kc130_long")
     a, b = hw.get("hose", "kc130_long"), hw.get("hose", "kdc10_pod")
-    t, prov = P.derive_hose(src, a, b)
+    t, prov = derive_hose(src, a, b)
     ratio = (b.outer_diameter ** 4 - b.inner_diameter ** 4) / (a.outer_diameter ** 4 - a.inner_diameter ** 4)
     assert prov["status"] == "derived" and prov["derived_from"] == "kc130_long"
     assert prov["scale_factor"] == pytest.approx(ratio, rel=1e-12)
@@ -123,7 +131,7 @@ def synthetic_ringdown(kind, f, zeta, fs=1000.0, hold=1.5, dur=8.0, noise=0.01, 
 
 @pytest.mark.parametrize("kind,f,zeta", [("ringdown_bending", 1.8, 0.04), ("ringdown_axial", 42.0, 0.055)])
 def test_measure_ringdown_recovers_known_frequency_and_damping(kind, f, zeta):
-    m = P.measure_ringdown(synthetic_ringdown(kind, f, zeta, dur=8.0 if f < 10 else 1.0))
+    m = measure_ringdown(synthetic_ringdown(kind, f, zeta, dur=8.0 if f < 10 else 1.0))
     assert m["frequency_hz"] == pytest.approx(f, rel=1e-3)
     assert m["damping_ratio"] == pytest.approx(zeta, rel=0.02)
     # the thermocouples, not the setpoint
@@ -135,37 +143,21 @@ def test_measure_ringdown_recovers_known_frequency_and_damping(kind, f, zeta):
 
 def test_real_bending_record_uses_the_thermocouples():
     rec = read_record(RINGDOWN / "RD-KC130-B-20F-r1.mcap")
-    m = P.measure_ringdown(rec)
+    m = measure_ringdown(rec)
     tc = rec.topic("/rig/temperature")
     assert m["temperature_F"] == pytest.approx(np.concatenate([tc.t1_F, tc.t2_F]).mean())
     assert m["temperature_F"] != 20.0
     assert 1.0 < m["frequency_hz"] < 3.0 and 0.01 < m["damping_ratio"] < 0.2
 
 
-# ---- linear modes and tuning -----------------------------------------------------------
-
-def test_linear_modes_match_euler_bernoulli_cantilever():
-    # no gravity, no air: the chain's first mode against the beam's (the cantilever
-    # convergence test of tests/solver: 0.1 % at 32 elements)
-    L, EI, mu, eta, n = 1.5, 50.0, 3.0, 0.4, 32
-    hose = HoseProperties(length=L, outer_diameter=0.05, inner_diameter=0.0, dry_mass_per_length=mu,
-                          EI=EI, EA=1e6, bending_damping=eta)
-    m = Model(hose, n, air_density=0.0, kinematic_viscosity=1.5e-5, clamp=Clamp((1, 0, 0)),
-              gravity=(0.0, 0.0, 0.0))
-    st = P.equilibrium(m, np.outer(np.linspace(0, L, n + 1), [1, 0, 0]))
-    f_d, zeta = P.linearize(m, st).first_mode(2)
-    wn = 1.8751 ** 2 * math.sqrt(EI / (mu * L ** 4))
-    z_eb = eta * wn / (2 * EI)      # stiffness-proportional damping of the continuum
-    assert zeta == pytest.approx(z_eb, rel=5e-3)
-    assert f_d == pytest.approx(wn * math.sqrt(1 - z_eb ** 2) / (2 * math.pi), rel=2e-3)
-
+# ---- tuning -----------------------------------------------------------------------
 
 def test_tuning_hits_the_target_mode(hw):
-    rig = P.BenchRig.from_sheet(hw.get("hose", "fa18_buddy"), 1.22)
-    axial = P.axial_spring_guess(P.BenchRig.from_sheet(hw.get("hose", "fa18_buddy"), 1.22, True, 12.0),
+    rig = BenchRig.from_sheet(hw.get("hose", "fa18_buddy"), 1.22)
+    axial = axial_spring_guess(BenchRig.from_sheet(hw.get("hose", "fa18_buddy"), 1.22, True, 12.0),
                                  6, 42.0, 0.055)
-    r = P.tune_bending(rig, 6, 2.1, 0.045, 20.0, axial)
-    f, z, st, _ = P.rig_mode(rig, 6, (*axial, r["k_b"], r["c_b"]), 20.0)
+    r = tune_bending(rig, 6, 2.1, 0.045, 20.0, axial)
+    f, z, st, _ = rig_mode(rig, 6, (*axial, r["k_b"], r["c_b"]), 20.0)
     assert f == pytest.approx(2.1, rel=1e-6) and z == pytest.approx(0.045, rel=1e-6)
     assert st.pos[-1, 2] < -0.01     # it sags
 
@@ -173,7 +165,7 @@ def test_tuning_hits_the_target_mode(hw):
 # ---- the committed data file -------------------------------------------------------------
 
 def test_data_file_loads_by_hose_and_feeds_the_solver(doc):
-    lib = P.load_library()
+    lib = load_library()
     assert set(lib.hoses) >= {"kc130_long", "fa18_buddy", "kdc10_pod"}
     assert doc["hoses"]["kdc10_pod"]["status"] == "derived"
     assert doc["hoses"]["kc130_long"]["status"] == "measured"
@@ -219,14 +211,14 @@ def test_fig9_time_simulation_at_eight_elements(doc, hw, hose, which):
     constants looked up in the committed table, simulated, measured like a record."""
     p = doc["hoses"][hose]
     g = p["bending_groups"][which]
-    lib = P.load_library()
-    rig = P.BenchRig.from_sheet(hw.get("hose", hose), p["bench_rig"]["bending"]["section_length_m"])
+    lib = load_library()
+    rig = BenchRig.from_sheet(hw.get("hose", hose), p["bench_rig"]["bending"]["section_length_m"])
     T = g["temperature_F"]["mean"]
     f, z = g["frequency_hz"]["mean"], g["damping_ratio"]["mean"]
-    sim = P.simulate_ringdown(rig, 8, lib.element_constants(hose, T), T, g["amplitude_at_release_m"], f, z)
-    m = P.measure_ringdown(sim)
-    assert abs(m["frequency_hz"] / f - 1) <= P.FREQUENCY_TOLERANCE
-    assert abs(m["damping_ratio"] / z - 1) <= P.DAMPING_TOLERANCE
+    sim = simulate_ringdown(rig, 8, lib.element_constants(hose, T), T, g["amplitude_at_release_m"], f, z)
+    m = measure_ringdown(sim)
+    assert abs(m["frequency_hz"] / f - 1) <= FREQUENCY_TOLERANCE
+    assert abs(m["damping_ratio"] / z - 1) <= DAMPING_TOLERANCE
 
 
 # ---- end to end on records of known constants ---------------------------------------------
@@ -239,26 +231,26 @@ def test_build_recovers_the_constants_that_made_the_records(tmp_path, hw):
     logs.mkdir()
     shutil.copy(ROOT / "flighttest" / "logs" / "hardware.toml", tmp_path / "hardware.toml")
     sheet = hw.get("hose", "fa18_buddy")
-    rig = P.BenchRig.from_sheet(sheet, 1.22)
-    ax = P.BenchRig.from_sheet(sheet, 1.22, hanging=True, tip_mass=12.0)
+    rig = BenchRig.from_sheet(sheet, 1.22)
+    ax = BenchRig.from_sheet(sheet, 1.22, hanging=True, tip_mass=12.0)
     n = 16
     l = rig.length / n
     EA, eta_a = 1.1e6, 460.0
     truth = {0.0: (150.0, 1.2), 30.0: (110.0, 0.8), 60.0: (80.0, 0.5)}   # EI, eta_b
     for T, (EI, eta) in truth.items():
         c = (EA / l, eta_a / l, EI / l, eta / l)
-        f, z, _, _ = P.rig_mode(rig, n, c, T)
-        write_record(logs / f"SYN-B-{int(T)}F.mcap", P.simulate_ringdown(rig, n, c, T, 0.025, f, z))
+        f, z, _, _ = rig_mode(rig, n, c, T)
+        write_record(logs / f"SYN-B-{int(T)}F.mcap", simulate_ringdown(rig, n, c, T, 0.025, f, z))
     c = (EA / l, eta_a / l, 80.0 / l, 0.5 / l)
-    f, z, _, _ = P.rig_mode(ax, n, c, 70.0)
-    write_record(logs / "SYN-A-70F.mcap", P.simulate_ringdown(ax, n, c, 70.0, 2e-4, f, z))
-    out = tmp_path / "props.json"
+    f, z, _, _ = rig_mode(ax, n, c, 70.0)
+    write_record(logs / "SYN-A-70F.mcap", simulate_ringdown(ax, n, c, 70.0, 2e-4, f, z))
+    out = tmp_path / "built"
     res = CliRunner().invoke(properties, ["build", "--logs", str(logs), "--out", str(out),
                                           "--hardware", str(tmp_path / "hardware.toml"),
                                           "--element-counts", "8,16", "--quiet"])
     assert res.exit_code == 0, res.output
     assert "verification (N=8, time simulation): 4/4 within" in res.output
-    d = P.read_properties(out)
+    d = read_properties(out / "hose_properties.json")
     tuned = d["hoses"]["fa18_buddy"]["bending_tuning"]
     for T, (EI, eta) in truth.items():
         r = next(r for r in tuned if abs(r["temperature_F"] - T) < 1e-9 and r["n_elements"] == n)
@@ -270,6 +262,9 @@ def test_build_recovers_the_constants_that_made_the_records(tmp_path, hw):
     assert a["eta_a_equivalent_N_s"] == pytest.approx(eta_a, rel=1e-2)
     # a hose with no records is not derived unless its source was measured
     assert "kdc10_pod" not in d["tables"]
+    # the report's "built by ... (code X)" reads code_version.git
+    assert d["code_version"]["git"] == code_version() != ""
+    assert any(k.endswith("properties/tune.py") for k in d["code_version"]["source_sha256"])
 
 
 def test_cli_lookup_refuses_extrapolation_in_one_line():
@@ -278,3 +273,80 @@ def test_cli_lookup_refuses_extrapolation_in_one_line():
     assert "outside the tested range" in res.output and "Traceback" not in res.output
     res = CliRunner().invoke(properties, ["lookup", "kc130_long", "80", "0.2", "--allow-extrapolation"])
     assert res.exit_code == 0 and "k_b =" in res.output
+
+
+# ---- where a build writes -----------------------------------------------------------------
+
+def _tiny_doc() -> dict:
+    """What the build summary reads, without a build."""
+    return {"format": store.FORMAT, "hoses": {}, "tables": {}, "verification_tolerance_pct":
+            {"frequency": 0.5, "damping": 2.0},
+            "verification": [{"hose": "h", "test": "bending", "temperature_F": 0.0, "n_elements": 8,
+                              "frequency_error_pct": 0.1, "damping_error_pct": 0.2,
+                              "within_tolerance": True}]}
+
+
+def test_build_writes_under_out_and_leaves_the_committed_table(tmp_path, monkeypatch):
+    committed = DEFAULT_PATH.read_bytes()
+    monkeypatch.setattr(build, "build_properties", lambda *a, **k: _tiny_doc())
+    monkeypatch.setattr(store, "DEFAULT_OUT", tmp_path / "default")
+    res = CliRunner().invoke(properties, ["build", "--quiet"])
+    assert res.exit_code == 0, res.output
+    assert read_properties(tmp_path / "default" / "hose_properties.json")["verification"]
+    res = CliRunner().invoke(properties, ["build", "--quiet", "--out", str(tmp_path / "mine")])
+    assert res.exit_code == 0 and (tmp_path / "mine" / "hose_properties.json").is_file()
+    assert DEFAULT_PATH.read_bytes() == committed
+    res = CliRunner().invoke(properties, ["build", "--out", str(tmp_path), "--update-committed"])
+    assert res.exit_code == 2 and "not both" in res.output
+    assert DEFAULT_PATH.read_bytes() == committed
+
+
+def test_report_names_the_code_that_built_the_committed_table(doc):
+    git = doc["code_version"]["git"]
+    assert git
+    assert f"(code {git})" in report.properties_section()["html"]
+
+
+# ---- loaders read a file once per version of it -------------------------------------------
+
+def _count_reads(monkeypatch, module, name):
+    calls = []
+    real = getattr(module, name)
+    monkeypatch.setattr(module, name, lambda p: calls.append(p) or real(p))
+    return calls
+
+
+def _touch_later(p):
+    """A time stamp one second on: a file system's coarse clock cannot hide the edit."""
+    st = p.stat()
+    os.utime(p, ns=(st.st_atime_ns, st.st_mtime_ns + 10 ** 9))
+
+
+def test_hardware_is_read_once_until_the_file_changes(tmp_path, monkeypatch):
+    p = tmp_path / "hardware.toml"
+    text = (ROOT / "flighttest" / "logs" / "hardware.toml").read_text(encoding="utf-8")
+    p.write_text(text, encoding="utf-8")
+    calls = _count_reads(monkeypatch, hardware, "_read_hardware")
+    first = load_hardware(p)
+    assert load_hardware(p) is first and load_hardware(str(p)) is first and len(calls) == 1
+    # an edit of the same size: the time stamp tells
+    assert "density_kg_m3 = 810.0" in text
+    p.write_text(text.replace("density_kg_m3 = 810.0", "density_kg_m3 = 790.0"), encoding="utf-8")
+    _touch_later(p)
+    edited = load_hardware(p)
+    assert len(calls) == 2 and edited is not first and edited.fuel_density == 790.0
+
+
+def test_property_library_is_read_once_until_the_file_changes(tmp_path, monkeypatch):
+    p = tmp_path / "props.json"
+    doc = {"format": store.FORMAT, "tables": {"h": small_table("h").to_dict()}}
+    write_properties(doc, p)
+    calls = _count_reads(monkeypatch, store, "_read_library")
+    first = load_library(p)
+    assert load_library(p) is first and len(calls) == 1
+    # same size, new content and time stamp: read again
+    doc["tables"]["h"] = small_table("h", temps=(-40.0, 0.0, 40.0, 61.0)).to_dict()
+    write_properties(doc, p)
+    _touch_later(p)
+    edited = load_library(p)
+    assert len(calls) == 2 and edited.table("h").temperature_range_F[1] == 61.0

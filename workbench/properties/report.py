@@ -1,6 +1,6 @@
-"""Figures and table rows of the hose-property section of the report.
+"""Figures of the hose-property section of the report.
 
-Everything is drawn from the property document (`workbench.properties`,
+Everything is drawn from the property document (`workbench.properties.store`,
 `read_properties`), so a report shows exactly what the committed file holds:
 
 - `figure_measured`: paper Fig. 6, measured frequency squared and damping ratio
@@ -8,8 +8,9 @@ Everything is drawn from the property document (`workbench.properties`,
 - `figure_element_constants`: paper Fig. 7, the tuned element constants
   against temperature for each element length, with the table's splines;
 - `figure_element_length`: constants x element length against element length
-  (how the tuned constants follow from element length);
-- `figure_verification` and `verification_rows`: paper Fig. 9.
+  (how the tuned constants follow from element length).
+
+Paper Fig. 9 is drawn from the validation runs (`workbench.figures`).
 
 Figures are `matplotlib.figure.Figure` objects (no pyplot state); the caller
 saves or embeds them.
@@ -36,51 +37,6 @@ def _measured(doc: dict, hose: str) -> dict:
     if p["status"] != "measured":
         raise ValueError(f"hose {hose} was never bench tested ({p['status']} from {p.get('derived_from')})")
     return p
-
-
-def measurement_rows(doc: dict) -> list[dict]:
-    """Per hose and setpoint: measured mean temperature, frequency and damping ratio
-    with their spread over the repetitions, and the records."""
-    rows = []
-    for hose, p in sorted(doc["hoses"].items()):
-        if p["status"] != "measured":
-            continue
-        for g in p["bending_groups"] + [p["axial_group"]]:
-            rows.append({
-                "hose": hose, "test": "axial" if g["test_kind"] == "ringdown_axial" else "bending",
-                "setpoint_F": g["setpoint_F"], "n": g["n"],
-                "temperature_F": g["temperature_F"]["mean"], "temperature_std_F": g["temperature_F"]["std"],
-                "frequency_hz": g["frequency_hz"]["mean"], "frequency_std_hz": g["frequency_hz"]["std"],
-                "frequency_min_hz": g["frequency_hz"]["min"], "frequency_max_hz": g["frequency_hz"]["max"],
-                "frequency_squared_hz2": g["frequency_hz"]["mean"] ** 2,
-                "damping_ratio": g["damping_ratio"]["mean"], "damping_ratio_std": g["damping_ratio"]["std"],
-                "damping_ratio_min": g["damping_ratio"]["min"], "damping_ratio_max": g["damping_ratio"]["max"],
-                "records": ", ".join(g["records"]),
-            })
-    return rows
-
-
-def verification_rows(doc: dict) -> list[dict]:
-    """Paper Fig. 9 as a table: measured against simulated, per hose, test and temperature."""
-    keys = ("hose", "test", "temperature_F", "n_elements", "frequency_measured_hz",
-            "frequency_simulated_hz", "frequency_error_pct", "damping_measured", "damping_simulated",
-            "damping_error_pct", "within_tolerance", "constants_extrapolated_in_temperature")
-    return [{k: r[k] for k in keys} for r in doc["verification"]]
-
-
-def tuning_rows(doc: dict, hose: str) -> list[dict]:
-    """Tuned constants per (temperature, element count), with constant x length."""
-    p = _prov(doc, hose)
-    t = PropertyTable.from_dict(doc["tables"][hose])
-    rows = []
-    for i, T in enumerate(t.temperatures_F):
-        for j, l in enumerate(t.element_lengths):
-            rows.append({"hose": hose, "temperature_F": float(T), "element_length_m": float(l),
-                         "k_a_N_per_m": float(t.k_a[i, j]), "c_a_N_s_per_m": float(t.c_a[i, j]),
-                         "k_b_N_m_per_rad": float(t.k_b[i, j]), "c_b_N_m_s_per_rad": float(t.c_b[i, j]),
-                         "k_b_x_l_N_m2": float(t.k_b[i, j] * l), "c_b_x_l_N_m2_s": float(t.c_b[i, j] * l),
-                         "status": p["status"]})
-    return rows
 
 
 def _spline_curve(x: np.ndarray, y: np.ndarray, n: int = 200) -> tuple[np.ndarray, np.ndarray]:
@@ -185,40 +141,5 @@ def figure_element_length(doc: dict, hose: str) -> Figure:
         ax.grid(alpha=0.3, which="both")
     ax1.legend(fontsize=7, loc="upper right")
     fig.suptitle(f"{hose}: tuned bending constants against element length", fontsize=10)
-    fig.tight_layout()
-    return fig
-
-
-def figure_verification(doc: dict, hose: str) -> Figure:
-    """Paper Fig. 9: measured means (+-1 std) and the time-simulated N-element
-    bench model with table constants, frequency squared and damping ratio."""
-    p = _measured(doc, hose)
-    rows = [r for r in doc["verification"] if r["hose"] == hose and r["test"] == "bending"]
-    if not rows:
-        raise ValueError(f"no bending verification for hose {hose}")
-    T = np.array([r["temperature_F"] for r in rows])
-    fm = np.array([r["frequency_measured_hz"] for r in rows])
-    fsd = np.array([r["frequency_measured_std_hz"] or 0.0 for r in rows])
-    fs = np.array([r["frequency_simulated_hz"] for r in rows])
-    zm = np.array([r["damping_measured"] for r in rows])
-    zsd = np.array([r["damping_measured_std"] or 0.0 for r in rows])
-    zs = np.array([r["damping_simulated"] for r in rows])
-    n = rows[0]["n_elements"]
-    fig = Figure(figsize=(9, 4))
-    ax1, ax2 = fig.subplots(1, 2)
-    ax1.errorbar(T, fm ** 2, yerr=2 * fm * fsd, fmt="o", mfc="none", capsize=3, label="test mean +- 1 std")
-    ax1.plot(T, fs ** 2, "x", ms=8, label=f"simulation, {n} elements")
-    ax1.set_ylabel("frequency squared (Hz^2)")
-    ax2.errorbar(T, zm, yerr=zsd, fmt="o", mfc="none", capsize=3, label="test mean +- 1 std")
-    ax2.plot(T, zs, "x", ms=8, label=f"simulation, {n} elements")
-    ax2.set_ylabel("damping ratio")
-    for ax in (ax1, ax2):
-        ax.set_xlabel("temperature (F)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    worst_f = max(abs(r["frequency_error_pct"]) for r in rows)
-    worst_z = max(abs(r["damping_error_pct"]) for r in rows)
-    fig.suptitle(f"{hose}: bench model with table constants against the tests "
-                 f"(worst {worst_f:.3f} % frequency, {worst_z:.3f} % damping)", fontsize=10)
     fig.tight_layout()
     return fig

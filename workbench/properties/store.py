@@ -1,0 +1,57 @@
+"""The property document on disk: written, read and loaded as a `PropertyLibrary`."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from solver.properties import PropertyLibrary
+from workbench.errors import InputError
+from workbench.provenance import ROOT, FileCache, json_safe
+
+# The committed table that cases with `source = "table"` use.
+DEFAULT_PATH = ROOT / "cases" / "properties" / "hose_properties.json"
+FORMAT = "hose-properties/1"
+# Where `workbench properties build` writes unless told to update the committed
+# table: beside the other generated reports (git-ignored), so a trial build
+# never replaces the committed numbers.
+DEFAULT_OUT = ROOT / "reports" / "out" / "properties"
+
+
+def write_properties(doc: dict, path: str | Path = DEFAULT_PATH) -> Path:
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_suffix(p.suffix + ".tmp")
+    tmp.write_text(json.dumps(json_safe(doc), indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    tmp.replace(p)
+    return p
+
+
+def read_properties(path: str | Path = DEFAULT_PATH) -> dict:
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{p}: property file not found (make it with 'workbench properties build')") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{p}: not valid JSON ({exc})") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise InputError(f"{p}: format {doc.get('format') if isinstance(doc, dict) else None!r}, "
+                         f"expected {FORMAT!r}")
+    return doc
+
+
+_libraries = FileCache()
+
+
+def load_library(path: str | Path = DEFAULT_PATH) -> PropertyLibrary:
+    """The property tables of the data file, by hose id. Read once per version of
+    the file: case building calls this inside fit loops."""
+    return _libraries.get(path, _read_library)
+
+
+def _read_library(path: Path) -> PropertyLibrary:
+    doc = read_properties(path)
+    try:
+        return PropertyLibrary.from_dict(doc["tables"])
+    except (KeyError, ValueError, TypeError) as exc:
+        raise InputError(f"{path}: bad property tables ({exc})") from None

@@ -1,0 +1,98 @@
+"""Where a stored result came from, and how it is stored: the code version, file
+hashes, dependency versions, one JSON-safe converter, and a cache of parsed
+input files that re-reads a file once it changes."""
+from __future__ import annotations
+
+import hashlib
+import math
+import subprocess
+from importlib import metadata
+from pathlib import Path
+from types import ModuleType
+from typing import Any, Callable, Iterable
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+DEPENDENCIES = ("numpy", "scipy", "numba", "pandas")
+
+
+def code_version() -> str:
+    """`git describe --always --dirty` of the source tree, or "unknown" outside git."""
+    try:
+        rev = subprocess.run(["git", "-C", str(ROOT), "describe", "--always", "--dirty"],
+                             capture_output=True, text=True, timeout=5)
+        return rev.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def file_sha256(path: str | Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def source_sha256(modules: Iterable[ModuleType]) -> dict[str, str]:
+    """SHA-256 of the source files of `modules` (every .py file of a package), by path
+    relative to the repository: exact even when the code is not committed."""
+    out = {}
+    for mod in modules:
+        path = Path(mod.__file__).resolve()
+        files = sorted(path.parent.glob("*.py")) if path.name == "__init__.py" else [path]
+        for f in files:
+            try:
+                name = str(f.relative_to(ROOT))
+            except ValueError:
+                name = str(f)
+            out[name] = file_sha256(f)
+    return out
+
+
+def dependency_versions(names: Iterable[str] = DEPENDENCIES) -> dict[str, str | None]:
+    """Installed version of each distribution (None when it is not installed)."""
+    out = {}
+    for name in names:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def json_safe(v: Any) -> Any:
+    """`v` with numpy scalars and arrays as Python values, tuples as lists, keys as
+    strings and non-finite floats as None (strict JSON has no NaN or inf)."""
+    if isinstance(v, dict):
+        return {str(k): json_safe(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_safe(x) for x in v]
+    if isinstance(v, np.ndarray):
+        return json_safe(v.tolist())
+    if isinstance(v, (np.bool_, np.integer, np.floating)):
+        return json_safe(v.item())
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    return v
+
+
+class FileCache:
+    """Values parsed from files, keyed on the resolved path and kept while the
+    file's modification time and size stay the same. The cached value is
+    shared by every caller: treat it as read-only."""
+
+    def __init__(self) -> None:
+        self._entries: dict[Path, tuple[tuple[int, int], Any]] = {}
+
+    def get(self, path: str | Path, read: Callable[[Path], Any]) -> Any:
+        """`read(path)`, or its value from an earlier call on the unchanged file."""
+        p = Path(path)
+        try:
+            st = p.stat()
+        except OSError:
+            return read(p)   # the reader names the missing or unreadable file
+        key, stamp = p.resolve(), (st.st_mtime_ns, st.st_size)
+        hit = self._entries.get(key)
+        if hit is not None and hit[0] == stamp:
+            return hit[1]
+        value = read(p)
+        self._entries[key] = (stamp, value)
+        return value
