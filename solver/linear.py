@@ -125,7 +125,6 @@ def linearize(model: Model, state: State) -> LinearModel:
     n, mass = chain.n_nodes, chain.mass
     pos0 = np.ascontiguousarray(state.pos, dtype=float)
     zero = np.zeros_like(pos0)
-
     m = 3 * (n - 1)
     Kx = np.zeros((m, m))
     Cv = np.zeros((m, m))

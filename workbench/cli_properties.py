@@ -18,7 +18,8 @@ def properties() -> None:
 @click.option("--logs", "logs_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Folder of ring-down records (*.mcap) [default: flighttest/logs/ringdown].")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Folder to write hose_properties.json in [default: reports/out/properties].")
+              help="Folder to write hose_properties.json in; refused if one is there already "
+                   "[default: a new folder under reports/out/properties].")
 @click.option("--update-committed", is_flag=True,
               help="Overwrite the committed table cases/properties/hose_properties.json instead.")
 @click.option("--hardware", "hardware_file", type=click.Path(dir_okay=False, path_type=Path),
@@ -36,11 +37,8 @@ def build(logs_dir: Path | None, out_dir: Path | None, update_committed: bool, h
     from flighttest.mcap_io import LogError
     from workbench.hardware import load_hardware
     from workbench.properties.build import DEFAULT_LOGS, ELEMENT_COUNTS, build_properties
-    from workbench.properties.store import DEFAULT_OUT, DEFAULT_PATH, write_properties
+    from workbench.properties.store import build_target, write_properties
 
-    if update_committed and out_dir is not None:
-        raise click.UsageError("give --out or --update-committed, not both")
-    target = DEFAULT_PATH if update_committed else (out_dir or DEFAULT_OUT) / DEFAULT_PATH.name
     t0 = time.perf_counter()
     counts = ELEMENT_COUNTS
     if element_counts is not None:
@@ -49,6 +47,10 @@ def build(logs_dir: Path | None, out_dir: Path | None, update_committed: bool, h
         except ValueError:
             raise click.BadParameter(f"{element_counts!r} is not a comma-separated list of integers",
                                      param_hint="--element-counts") from None
+    try:
+        target = build_target(out_dir, update_committed)
+    except InputError as exc:
+        raise click.BadParameter(str(exc), param_hint="--out") from None
 
     def progress(msg: str) -> None:
         if not quiet:

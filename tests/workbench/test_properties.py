@@ -290,15 +290,28 @@ def test_build_writes_under_out_and_leaves_the_committed_table(tmp_path, monkeyp
     committed = DEFAULT_PATH.read_bytes()
     monkeypatch.setattr(build, "build_properties", lambda *a, **k: _tiny_doc())
     monkeypatch.setattr(store, "DEFAULT_OUT", tmp_path / "default")
-    res = CliRunner().invoke(properties, ["build", "--quiet"])
-    assert res.exit_code == 0, res.output
-    assert read_properties(tmp_path / "default" / "hose_properties.json")["verification"]
+    # by default, a new folder per build
+    for _ in range(2):
+        res = CliRunner().invoke(properties, ["build", "--quiet"])
+        assert res.exit_code == 0, res.output
+    written = sorted((tmp_path / "default").glob("*/hose_properties.json"))
+    assert len(written) == 2 and read_properties(written[0])["verification"]
     res = CliRunner().invoke(properties, ["build", "--quiet", "--out", str(tmp_path / "mine")])
     assert res.exit_code == 0 and (tmp_path / "mine" / "hose_properties.json").is_file()
-    assert DEFAULT_PATH.read_bytes() == committed
+    # another build's file is not replaced
+    res = CliRunner().invoke(properties, ["build", "--quiet", "--out", str(tmp_path / "mine")])
+    assert res.exit_code == 2 and "already there" in res.output and "Traceback" not in res.output
     res = CliRunner().invoke(properties, ["build", "--out", str(tmp_path), "--update-committed"])
     assert res.exit_code == 2 and "not both" in res.output
     assert DEFAULT_PATH.read_bytes() == committed
+
+
+def test_build_refuses_an_unwritable_out_before_computing(tmp_path, monkeypatch):
+    monkeypatch.setattr(build, "build_properties", lambda *a, **k: pytest.fail("computed anyway"))
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    res = CliRunner().invoke(properties, ["build", "--out", str(blocker / "sub")])
+    assert res.exit_code == 2 and "cannot write there" in res.output
 
 
 def test_report_names_the_code_that_built_the_committed_table(doc):

@@ -95,7 +95,6 @@ def measure_ringdown(record: FlightRecord) -> dict:
     return out
 
 
-
 def measure_records(paths: Iterable[Path], progress: Callable[[str], None] | None = None) -> list[dict]:
     """`measure_ringdown` of every ring-down record in `paths`, with file and SHA-256.
     Records of other kinds are skipped; a record that cannot be measured is an error."""

@@ -31,7 +31,6 @@ def fahrenheit_to_kelvin(t_F: float) -> float:
     return (t_F - 32.0) * 5.0 / 9.0 + 273.15
 
 
-
 @dataclass(frozen=True)
 class BenchRig:
     """A bench-test section as modelled: the hose from its data sheet, empty of

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import json
+import tempfile
+from datetime import datetime, timezone
 from pathlib import Path
 
 from solver.properties import PropertyLibrary
@@ -12,9 +14,39 @@ from workbench.provenance import ROOT, FileCache, json_safe
 DEFAULT_PATH = ROOT / "cases" / "properties" / "hose_properties.json"
 FORMAT = "hose-properties/1"
 # Where `workbench properties build` writes unless told to update the committed
-# table: beside the other generated reports (git-ignored), so a trial build
-# never replaces the committed numbers.
+# table: beside the other generated reports (git-ignored), a new folder per
+# build, so a trial build never replaces the committed numbers or another build.
 DEFAULT_OUT = ROOT / "reports" / "out" / "properties"
+
+
+def build_target(out_dir: str | Path | None, update_committed: bool = False) -> Path:
+    """The file a build writes, checked writable before any computing: the
+    committed table only on request; else hose_properties.json in `out_dir`
+    (refused if one is there already), or in a new time-stamped folder under
+    DEFAULT_OUT."""
+    if update_committed:
+        if out_dir is not None:
+            raise InputError("--out and --update-committed: give one, not both")
+        target = DEFAULT_PATH
+    elif out_dir is None:
+        stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
+        target = DEFAULT_OUT / stamp / DEFAULT_PATH.name
+        n = 1
+        while target.parent.exists():
+            n += 1
+            target = DEFAULT_OUT / f"{stamp}-{n}" / DEFAULT_PATH.name
+    else:
+        target = Path(out_dir) / DEFAULT_PATH.name
+        if target.exists():
+            raise InputError(f"{target}: a property file is already there (another build's); "
+                             f"choose another --out")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=target.parent):
+            pass
+    except OSError as exc:
+        raise InputError(f"{target.parent}: cannot write there ({exc.strerror or exc})") from None
+    return target
 
 
 def write_properties(doc: dict, path: str | Path = DEFAULT_PATH) -> Path:

@@ -137,7 +137,6 @@ def resample_chain(pos: np.ndarray, n_elements: int) -> np.ndarray:
     return np.column_stack([np.interp(s_new, s, pos[:, c]) for c in range(3)])
 
 
-
 def _one(values, what: str):
     vals = {v for v in values}
     if len(vals) != 1:

@@ -15,12 +15,12 @@ import pandas as pd
 
 from flighttest.mcap_io import FlightRecord, make_record
 from solver.integrate import simulate
+from solver.linear import linearize
 from solver.properties import PropertyTable
 from solver.state import State
 from workbench.hardware import HoseSheet
 from workbench.properties.measure import measure_ringdown
 from workbench.properties.rig import BenchRig, equilibrium, rig_mode
-from solver.linear import linearize
 
 VERIFY_ELEMENTS = 8
 # Fig. 9 acceptance: simulated against measured, relative
