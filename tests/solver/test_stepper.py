@@ -179,18 +179,23 @@ def long_run(rate, minutes, trace=False):
         tracemalloc.start()
     for k in range(1, n_frames + 1):
         t = k * frame
+        tow_prev = tow[:3].copy()
         fade = min(1.0, (t_end - t) / 20.0)
         tow[1], tow[4] = 0.2 * fade * math.sin(0.7 * t), 0.14 * fade * math.cos(0.7 * t)
         tow[2], tow[5] = 0.3 * fade * math.sin(1.9 * t), 0.57 * fade * math.cos(1.9 * t)
         probe = None
         if 20.0 <= t % 60.0 < 40.0:
-            # the probe catches the drogue where it is, then carries it with the tow point
-            # while easing it 0.5 m forward over 2 s
+            # the probe catches the drogue where it is (relative to the tow point, both
+            # taken at the end of the last frame), then carries it with the tow point
+            # while easing it 0.5 m forward over 2 s, and eases it back over the last 2 s
+            # before it lets go
             if anchor is None:
-                anchor = out.drogue_xyz - tow[:3], t
-            ease = min(1.0, (t - anchor[1]) / 2.0)
+                anchor = out.drogue_xyz - tow_prev, t
+            rise, fall = (t - anchor[1]) / 2.0, (40.0 - t % 60.0) / 2.0
+            ease = min(1.0, rise, fall)
+            rate_x = -0.25 if ease == rise < 1.0 else 0.25 if ease == fall < 1.0 else 0.0
             probe = np.concatenate([tow[:3] + anchor[0] + [-0.5 * ease, 0.0, 0.0],
-                                    tow[3:] + [-0.25 if ease < 1.0 else 0.0, 0.0, 0.0]])
+                                    tow[3:] + [rate_x, 0.0, 0.0]])
         else:
             anchor = None
         out = st.step(frame, tow, probe)
@@ -210,9 +215,14 @@ def long_run(rate, minutes, trace=False):
 def check_long_run(rate, minutes, trace):
     worst, final, mem = long_run(rate, minutes, trace)
     # bounded: forcing at 1.9 rad/s sits on the drogue's 0.3 Hz mode and the probe pulls
-    # it 0.5 m off, so it swings 1.4-2.5 m (measured); a blow-up would leave this bound
-    # (or raise DivergenceError). Once the motion stops it settles back on the static
-    # trail (measured: under 0.05 mm after 40 s).
+    # it 0.5 m off, so it swings 1.3-2.7 m (measured over 2 minutes at 120 and 60 Hz); a
+    # blow-up would leave this bound (or raise DivergenceError). Once the motion stops it
+    # settles back on the static trail (measured: under 0.05 mm after 40 s). The probe
+    # eases the drogue back before it lets go: released with the hose pushed 0.5 m in
+    # (its elements in 1.2 kN compression) the drogue may whirl inside its hinge free
+    # play with the hose going slack, a lasting oscillation of the model that simulate
+    # keeps at a quarter of the step (measured 0.2-0.4 m after 40 s), reached or not
+    # after a centimetre's difference at the capture.
     assert 0.5 < worst < 5.0
     assert final < 1e-3
     if trace:
