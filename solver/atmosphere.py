@@ -9,7 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-G0 = 9.80665            # m/s^2, standard gravity
+from solver.units import FT, G0, KT
+
 R_AIR = 287.05287       # J/(kg K), specific gas constant of dry air
 GAMMA = 1.4
 T0 = 288.15             # K, sea-level temperature
@@ -20,9 +21,6 @@ H_TROPOPAUSE = 11000.0  # m
 H_MAX = 20000.0         # m, top of the isothermal layer
 SUTHERLAND_C = 110.4    # K
 SUTHERLAND_BETA = 1.458e-6  # kg/(m s K^0.5)
-
-FT = 0.3048             # m per ft
-KT = 1852.0 / 3600.0    # m/s per knot
 
 
 @dataclass(frozen=True)

@@ -16,9 +16,9 @@ from solver import kernel as K
 from solver.drogue import DrogueProperties
 from solver.hose import HoseProperties
 from solver.reel import ReelProperties
+from solver.units import G0
 from solver.wind import WindField, uniform
 
-G0 = 9.80665
 TABLE_DT = 0.002   # s, sampling of prescribed-motion tables given to the kernel
 
 
@@ -112,7 +112,6 @@ class Model:
     tip_mass: float = 0.0
     gravity: tuple = (0.0, 0.0, -G0)
     hose_drag_scale: float = 1.0
-    reel_tension: Optional[float] = None   # resolved constant-tension set point, N
 
     def __post_init__(self):
         if not (isinstance(self.n_elements, (int, np.integer)) and 2 <= self.n_elements <= 400):
@@ -234,24 +233,6 @@ class Model:
         P[K.P_NE_MIN] = 2
         P[K.P_HOSE_REST_SUM] = float(np.sum(rest[1:n_hose]))
         return P
-
-    # ---- host-simulator step API ---------------------------------------------------
-    def stepper(self, state0=None, t0: Optional[float] = None):
-        """A fresh `solver.stepper.Stepper` on this model (static trail unless `state0`)."""
-        from solver.stepper import Stepper
-        return Stepper(self, state0, t0)
-
-    def step(self, dt: float, tow_point_state, probe_state=None):
-        """Advance one host frame: tow point (and probe, while the drogue is on it)
-        position and velocity at the end of the frame in, the hose, drogue and loads
-        at the end of the frame out (`solver.stepper.StepOutput`).
-
-        Delegates to a stepper this model builds at the first call, from its
-        static trail; `stepper()` gives an independent one (or a restart)."""
-        st = self.__dict__.get("_stepper")
-        if st is None:
-            st = self.__dict__["_stepper"] = self.stepper()
-        return st.step(dt, tow_point_state, probe_state)
 
     def stable_step(self, end_held: Optional[bool] = None) -> float:
         """A leapfrog step inside the stability limit of the stiffest mode.

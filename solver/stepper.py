@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from solver import kernel as K
-from solver.integrate import _reel_set_point, _remesh, _tables, check_failure, reel_state
+from solver.chain import check_failure, node_capacity, reel_set_point, reel_state, remesh, tables
 from solver.model import Model
 from solver.state import State
 from solver.statics import solve_static
@@ -182,17 +182,11 @@ class Stepper:
         self._wind = model.wind.params
         r = model.reel
         t_tab = float(r.payout_t[-1]) if r.mode == "prescribed" else self.t + 1.0
-        self._reel_tab = _tables(model, max(t_tab, self.t + 1.0))[6:9]
-        if r.mode == "prescribed":
-            L_max = float(np.max(r.payout_length))
-        elif r.mode == "drum":
-            L_max = model.hose.stowed_length
-        else:
-            L_max = model.hose.length
+        self._reel_tab = tables(model, max(t_tab, self.t + 1.0))[6:9]
         nh = state0.n_hose
-        self._n_max = max(nh, int(math.ceil(L_max / model.element_length)) + 3) + 1 + (1 if model.has_drogue else 0)
+        self._n_max = node_capacity(model, nh)
         self._rest = state0.rest.copy()
-        self._reel_tension = _reel_set_point(model, state0, self._rest)
+        self._reel_tension = reel_set_point(model, state0, self._rest)
         self._build(nh)
         self.pos = np.ascontiguousarray(state0.pos, dtype=float).copy()
         vel = np.ascontiguousarray(state0.vel, dtype=float).copy()
@@ -313,7 +307,7 @@ class Stepper:
             if code == K.OK:
                 break
             check_failure(code, t_start + done * h, self.model, self.n, bad, self.P, "step")
-            self.pos, self.vel_half, self.acc, self._rest, dflux = _remesh(
+            self.pos, self.vel_half, self.acc, self._rest, dflux = remesh(
                 code, self.model, self.nh, self.pos, self.vel_half, self.acc, self._rest, self.mass, self.reel[0])
             self.reel[4:7] += dflux
             self._build(len(self._rest))

@@ -141,13 +141,6 @@ def _fuselage_deficit(px, py, pz, p):
 
 
 @njit(cache=True)
-def vortex_wake_direct(px, py, pz, p):
-    """The VORTEX_WAKE field at one point from its filaments and fuselage wake."""
-    ux, uy, uz = _filaments(px, py, pz, p)
-    return ux - _fuselage_deficit(px, py, pz, p), uy, uz
-
-
-@njit(cache=True)
 def _filaments_many(points, p, out):
     for i in range(points.shape[0]):
         out[i, 0], out[i, 1], out[i, 2] = _filaments(points[i, 0], points[i, 1], points[i, 2], p)

@@ -179,18 +179,23 @@ def long_run(rate, minutes, trace=False):
         tracemalloc.start()
     for k in range(1, n_frames + 1):
         t = k * frame
+        tow_prev = tow[:3].copy()
         fade = min(1.0, (t_end - t) / 20.0)
         tow[1], tow[4] = 0.2 * fade * math.sin(0.7 * t), 0.14 * fade * math.cos(0.7 * t)
         tow[2], tow[5] = 0.3 * fade * math.sin(1.9 * t), 0.57 * fade * math.cos(1.9 * t)
         probe = None
         if 20.0 <= t % 60.0 < 40.0:
-            # the probe catches the drogue where it is, then carries it with the tow point
-            # while easing it 0.5 m forward over 2 s
+            # the probe catches the drogue where it is (relative to the tow point, both
+            # taken at the end of the last frame), then carries it with the tow point
+            # while easing it 0.5 m to port over 2 s, and eases it back over the last 2 s
+            # before it lets go
             if anchor is None:
-                anchor = out.drogue_xyz - tow[:3], t
-            ease = min(1.0, (t - anchor[1]) / 2.0)
-            probe = np.concatenate([tow[:3] + anchor[0] + [-0.5 * ease, 0.0, 0.0],
-                                    tow[3:] + [-0.25 if ease < 1.0 else 0.0, 0.0, 0.0]])
+                anchor = out.drogue_xyz - tow_prev, t
+            rise, fall = (t - anchor[1]) / 2.0, (40.0 - t % 60.0) / 2.0
+            ease = min(1.0, rise, fall)
+            rate_y = -0.25 if ease == rise < 1.0 else 0.25 if ease == fall < 1.0 else 0.0
+            probe = np.concatenate([tow[:3] + anchor[0] + [0.0, -0.5 * ease, 0.0],
+                                    tow[3:] + [0.0, rate_y, 0.0]])
         else:
             anchor = None
         out = st.step(frame, tow, probe)
@@ -210,9 +215,16 @@ def long_run(rate, minutes, trace=False):
 def check_long_run(rate, minutes, trace):
     worst, final, mem = long_run(rate, minutes, trace)
     # bounded: forcing at 1.9 rad/s sits on the drogue's 0.3 Hz mode and the probe pulls
-    # it 0.5 m off, so it swings 1.4-2.5 m (measured); a blow-up would leave this bound
+    # it 0.5 m to the side, so it swings 1.3-1.5 m (measured over 2 and 10 minutes, the
+    # 60 and 120 Hz runs within 1 mm of each other); a blow-up would leave this bound
     # (or raise DivergenceError). Once the motion stops it settles back on the static
-    # trail (measured: under 0.05 mm after 40 s).
+    # trail (measured: under 2 um after 40 s).
+    # The push is sideways because a push forward slackens this locked-reel hose (0.5 m
+    # puts its elements in 1.2 kN compression) and the model then has a second
+    # attractor: the drogue whirls inside its hinge free play with the hose going slack,
+    # lasting after the motion stops (simulate keeps it at the stepper's sub-step and at
+    # a quarter of it: 0.20 and 0.39 m off after 40 s). Whether a run falls into it
+    # turns on centimetres at the capture, so the 60 and 120 Hz runs parted there.
     assert 0.5 < worst < 5.0
     assert final < 1e-3
     if trace:
@@ -261,12 +273,15 @@ def test_a_long_frame_is_split_into_stable_substeps():
     assert np.max(np.abs(out.drogue_xyz - solve_static(m).pos[-1])) < 1e-3
 
 
-def test_model_step_delegates_to_its_own_stepper():
+def test_steppers_on_one_model_are_independent():
+    # the host holds its stepper; the model keeps no state, so a second stepper on it
+    # starts over from the static trail
     m = towed()
-    o1 = m.step(1 / 60, np.zeros(6))
-    o2 = m.step(1 / 60, (np.zeros(3), np.zeros(3)))
+    a = Stepper(m)
+    o1 = a.step(1 / 60, np.zeros(6))
+    o2 = a.step(1 / 60, (np.zeros(3), np.zeros(3)))
     assert o2.t == pytest.approx(2 / 60) and o1.t == pytest.approx(1 / 60)
-    assert m.stepper().t == 0.0            # a fresh one starts over
+    assert Stepper(m).t == 0.0
     assert o2.tow_force[0] > 1000.0        # the trail pulls aft on the tanker
 
 

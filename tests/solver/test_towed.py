@@ -95,16 +95,13 @@ def test_pure_string_is_the_hard_case():
     # puts in stays in short zig-zag waves instead of radiating and damping out.
     # Measured (EI 50 vs 1e-4): kinetic energy over the last 3 s 189 J vs 3.2 kJ,
     # largest mean squared second difference of the node positions 0.066 vs 0.32 m^2.
+    # Both runs must finish: a string that diverged would be an integration failure
+    # (DivergenceError fails the test), not a measure of how hard the case is.
     def run(EI):
         m, s = compress_model(EI)
-        try:
-            return simulate(m, 10.0, s, record_dt=0.01)
-        except DivergenceError:
-            return None
+        return simulate(m, 10.0, s, record_dt=0.01)
     beam = run(50.0)
     string = run(1e-4)
-    if string is None:      # diverging outright is the hard case too
-        return
     tail = beam.t > 7.0
     assert np.mean(string.energy_kinetic[tail]) > 5 * np.mean(beam.energy_kinetic[tail])
 

@@ -1,0 +1,16 @@
+"""The compiled inner loop: forces on the node chain and leapfrog time stepping.
+
+Discretisation (see docs in `solver/hose.py`): nodes 0..nh are the ends of the nh
+rigid hose elements, node 0 at the tow point (reel exit). With a drogue, node nh+1
+is the drogue's centre of mass, joined to the hose end (the hinge, node nh) by a
+stiff link: element nh. Element e joins nodes e and e+1.
+
+Everything here works on flat arrays and a scalar parameter vector `P` (indices
+in `solver.kernel.layout`) so that numba compiles it once; the Python side (`solver.integrate`, `solver.stepper`)
+prepares the arrays, handles the reel's remeshing and turns codes into errors.
+"""
+from solver.kernel.forces import (FAST, _angle, _apply_torque, _cdn, _joint_angle, _theta_over_sin,  # noqa: F401
+                                  _theta_over_sin_direct, compute_forces, potential_energy)
+from solver.kernel.layout import *  # noqa: F401,F403
+from solver.kernel.steps import (_drive_hold, _implicit_axial_damping, _interp_table,  # noqa: F401
+                                 drum_radius_inertia, run_steps)
