@@ -15,7 +15,7 @@ from solver.hose import HoseProperties
 from solver.model import Clamp, Model
 from solver.properties import PropertyLibrary, PropertyTable
 from workbench import properties as P
-from workbench.cli_properties import properties
+from workbench.cli.properties import properties
 from workbench.hardware import load_hardware
 
 ROOT = Path(__file__).resolve().parents[2]
