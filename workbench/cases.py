@@ -157,7 +157,7 @@ SCHEMA = {
     # variant's held-out logs must stay within expected +- band
     "findings": {
         "metric": Field(str, required=True),
-        "variant": Field(str, required=True),
+        "variant": Field(str, None),   # default: the case's first variant, as for a gate
         "logs": Field(list, []),
         "expected": Field(NUM, required=True),
         "band": Field(NUM, required=True, check=_nonneg),

@@ -114,12 +114,13 @@ def evaluate_gates(gates: list[dict], default_variant: str, runs) -> list[GateRe
     return out
 
 
-def evaluate_findings(findings: list[dict], runs) -> list[FindingResult]:
+def evaluate_findings(findings: list[dict], default_variant: str, runs) -> list[FindingResult]:
     """Each finding's mean over its held-out runs, against its expected value and band."""
     out = []
     for f in findings:
-        vals, logs = _values(runs, f["variant"], f["metric"], f["logs"])
+        var = f["variant"] or default_variant
+        vals, logs = _values(runs, var, f["metric"], f["logs"])
         value = sum(vals) / len(vals) if vals else None
-        out.append(FindingResult(f["metric"], f["variant"], value, float(f["expected"]), float(f["band"]),
+        out.append(FindingResult(f["metric"], var, value, float(f["expected"]), float(f["band"]),
                                  f["source"], f["band_source"], logs))
     return out

@@ -273,8 +273,9 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
     bar.close()
     for oc in outcomes.values():
         if oc.error is None:
-            oc.gates = evaluate_gates(oc.case["gates"], variants_of(oc.case)[0]["id"], oc.runs)
-            oc.findings = evaluate_findings(oc.case["findings"], oc.runs)
+            default_variant = variants_of(oc.case)[0]["id"]
+            oc.gates = evaluate_gates(oc.case["gates"], default_variant, oc.runs)
+            oc.findings = evaluate_findings(oc.case["findings"], default_variant, oc.runs)
     return [outcomes[c.id] for c in cases]
 
 
