@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +18,7 @@ from flighttest import read_record
 from flighttest.compare import compare_records
 from solver.integrate import DivergenceError
 from solver.statics import StaticSolveError
+from tests.workbench.test_validate import CASE, Z_EXPECTED
 from workbench.cases import load_case
 from workbench.cli import cli
 from workbench.errors import EXIT_BAD_INPUT, EXIT_GATE_FAILED, EXIT_INTERNAL, EXIT_NUMERICAL
@@ -26,35 +28,8 @@ ROOT = Path(__file__).resolve().parents[2]
 LOGS = ROOT / "flighttest" / "logs"
 DEMO = ROOT / "cases" / "demo" / "kdc10_doublet_demo.toml"
 
-TRAIL = """id = "trail-mini"
-kind = "trail"
-logs = ["flight/TR-KDC10-E7.mcap"]
-
-[hardware]
-hose = "kdc10_pod"
-drogue = "kdc10_pod"
-
-[condition]
-from_log = true
-
-[model]
-n_elements = 12
-
-[model.structure]
-EI_N_m2 = 50.0
-EA_N = 2.0e6
-
-[tow_motion]
-kind = "from_log"
-
-[run]
-duration_s = 0.5
-
-[[gates]]
-metric = "drogue_steady_x_error_m"
-max = 1.0
-source = "test threshold"
-"""
+# test_validate's one-trail case (12 elements, assumed constants, half a second), passing
+TRAIL = CASE.replace("{shape_max}", "5.0").replace("{z_expected}", str(Z_EXPECTED))
 
 
 def invoke(*args):
@@ -244,3 +219,16 @@ def test_every_gate_and_finding_of_the_committed_cases_names_a_metric_of_its_kin
         assert f["band"] > 0 and f["source"].startswith("paper") and f["band_source"]
     for g in case["gates"]:
         assert g["variant"] in (None, "diagnosed"), g
+
+
+def test_every_engagement_metric_with_the_hose_whip_is_produced_by_a_validate_run(tmp_path):
+    # the committed engagement case, one log, 12 elements, no variants: its one run's metrics
+    from workbench.validate import validate_cases
+    src = (ROOT / "cases" / "kdc10_engagement7.toml").read_text()
+    src = src[:src.index("[[variants]]")].replace("n_elements = 40", "n_elements = 12")
+    src = re.sub(r"(?m)^logs = .*$", 'logs = ["flight/EN-KDC10-E7.mcap"]', src)
+    (oc,) = validate_cases([case_file(tmp_path, src)], workers=1, progress=False)
+    assert oc.error is None, oc.error
+    (run,) = oc.runs
+    for name in METRICS["engagement"]:
+        assert isinstance(run.metrics.get(name), float) and math.isfinite(run.metrics[name]), name
