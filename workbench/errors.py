@@ -2,12 +2,12 @@
 exit status of every `workbench` verb."""
 from __future__ import annotations
 
-from flighttest.mcap_io import LogError
+from flighttest import LogError
 from solver.integrate import DivergenceError
 from solver.statics import StaticSolveError
 
 # The exit-code contract of every verb (README "Exit status", `workbench --help`).
-EXIT_OK = 0
+# 0: success
 EXIT_GATE_FAILED = 1     # validate: a gate failed or a finding changed
 EXIT_BAD_INPUT = 2       # a case, CLI option, log or hardware file is wrong (click's usage errors too)
 EXIT_NUMERICAL = 3       # the solver failed: a divergence or a static solve that did not converge

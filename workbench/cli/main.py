@@ -14,14 +14,15 @@ from workbench.cli.logs import logs
 from workbench.cli.properties import properties
 from workbench.cli.run import run
 from workbench.cli.validate import validate
-from workbench.errors import (BAD_INPUT, EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NUMERICAL, NUMERICAL)
+from workbench.errors import (BAD_INPUT, EXIT_BAD_INPUT, EXIT_GATE_FAILED, EXIT_INTERNAL, EXIT_NUMERICAL,
+                              NUMERICAL)
 
 HELP = f"""Hose-and-drogue aerial refueling simulation and validation workbench.
 
 \b
 Exit status of every command:
   0  success (validate: every gate passes, every finding as expected)
-  1  validate: a gate failed, or a finding moved out of its band
+  {EXIT_GATE_FAILED}  validate: a gate failed, or a finding moved out of its band
   {EXIT_BAD_INPUT}  bad input: a case, CLI option, log or hardware file (one line names it)
   {EXIT_NUMERICAL}  numerical failure: the solver diverged or its static solve failed
   {EXIT_INTERNAL}  internal error: a defect; the traceback is written to a log file
