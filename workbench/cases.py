@@ -23,6 +23,11 @@ Layout (every table but [hardware] and [condition] is optional):
     [run]        duration_s, record_dt_s
     [effects.NAME]  unmodelled effects by name with their parameters (`solver.effects`;
                  `workbench.effects_case`), e.g. [effects.tanker_wake] strength = 1.0
+    [[variants]] id, label, drogue_lift_scale, drogue_drag_scale, reel, tune_drogue_lift_on,
+                 calibrate, calibrate_on
+    [[gates]]    metric, variant, logs, max | min, abs, source, part60: must pass (`workbench.gates`)
+    [[findings]] metric, variant, logs, expected, band, source, band_source: what a reference
+                 model gets wrong, and how far that may move before it counts as a change
 """
 from __future__ import annotations
 
@@ -41,10 +46,11 @@ from solver.model import Model, Trajectory
 from solver.reel import ReelProperties
 from solver.wind import freestream
 from workbench.errors import InputError
+from workbench.gates import METRICS
 from workbench.hardware import Hardware, load_hardware
 
 KINDS = ("ringdown_bending", "ringdown_axial", "pitch_doublet", "trail", "engagement")
-ARRAY_TABLES = ("variants", "gates")
+ARRAY_TABLES = ("variants", "gates", "findings")
 DEFAULT_DURATION_S = 10.0   # a run with neither [run] duration_s nor a log to span
 FT = 0.3048
 
@@ -145,6 +151,18 @@ SCHEMA = {
         "min": Field(NUM, None),
         "abs": Field(bool, True),
         "source": Field(str, required=True),
+        "part60": Field(str, None),   # the 14 CFR Part 60 objective-test tolerance, where one applies
+    },
+    # what a reference model gets wrong (`workbench.gates`): its mean over the
+    # variant's held-out logs must stay within expected +- band
+    "findings": {
+        "metric": Field(str, required=True),
+        "variant": Field(str, None),   # default: the case's first variant, as for a gate
+        "logs": Field(list, []),
+        "expected": Field(NUM, required=True),
+        "band": Field(NUM, required=True, check=_nonneg),
+        "source": Field(str, required=True),
+        "band_source": Field(str, required=True),
     },
     "run": {
         "duration_s": Field(NUM, None, _positive),
@@ -252,8 +270,15 @@ def load_case(path: str | Path) -> Case:
     for g in tables["gates"]:
         if g["max"] is None and g["min"] is None:
             raise InputError(f"{p}: [[gates]] metric '{g['metric']}' needs a max or a min threshold")
-        if g["variant"] is not None and g["variant"] not in ids:
-            raise InputError(f"{p}: [[gates]] metric '{g['metric']}' names unknown variant '{g['variant']}'")
+    kind = tables[""]["kind"]
+    for name in ("gates", "findings"):
+        for g in tables[name]:
+            if g["metric"] not in METRICS[kind]:
+                raise InputError(f"{p}: [[{name}]] metric '{g['metric']}' is not a {kind} metric "
+                                 f"(known: {', '.join(sorted(METRICS[kind]))})")
+            if g["variant"] is not None and g["variant"] not in ids:
+                raise InputError(f"{p}: [[{name}]] metric '{g['metric']}' names unknown variant "
+                                 f"'{g['variant']}'")
     for name in SCHEMA:
         if name in ARRAY_TABLES:
             continue

@@ -1,5 +1,33 @@
-"""Errors the workbench reports to a user as one line (no traceback)."""
+"""Errors the workbench reports to a user as one line (no traceback), and the
+exit status of every `workbench` verb."""
+from __future__ import annotations
+
+from flighttest import LogError
+from solver.integrate import DivergenceError
+from solver.statics import StaticSolveError
+
+# The exit-code contract of every verb (README "Exit status", `workbench --help`).
+# 0: success
+EXIT_GATE_FAILED = 1     # validate: a gate failed or a finding changed
+EXIT_BAD_INPUT = 2       # a case, CLI option, log or hardware file is wrong (click's usage errors too)
+EXIT_NUMERICAL = 3       # the solver failed: a divergence or a static solve that did not converge
+EXIT_INTERNAL = 4        # a defect: an unexpected exception (traceback written to a log file)
 
 
 class InputError(ValueError):
     """Bad input: a file, field or parameter, named in the message, is wrong."""
+
+
+# what a bad file or option raises, wherever it is read
+BAD_INPUT = (InputError, LogError)
+# what the solver raises when the numbers fail (the message names the time and element)
+NUMERICAL = (DivergenceError, StaticSolveError)
+
+
+def exit_code_for(exc: BaseException) -> int:
+    """The exit status an exception stands for under the contract above."""
+    if isinstance(exc, BAD_INPUT):
+        return EXIT_BAD_INPUT
+    if isinstance(exc, NUMERICAL):
+        return EXIT_NUMERICAL
+    return EXIT_INTERNAL

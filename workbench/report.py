@@ -123,13 +123,15 @@ def write_report(outcomes, results: dict, out_dir: Path, wall_s: float, extra_se
         figs = [f"figures/{p.name}" for p in case_figures(oc, fig_dir)]
         cases.append({**cj, "figures": figs, "tables": _tables(cj)})
     gates = [g for c in cases for g in c["gates"]]
+    findings = [f for c in cases for f in c["findings"]]
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)), autoescape=True)
     ctx = {
         "title": "Hose-and-drogue validation report",
         "generated": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "code_version": results.get("code_version", "unknown"), "data_note": results.get("data_note", ""),
         "passed": results["passed"], "n_cases": len(cases), "n_runs": sum(len(c["runs"]) for c in cases),
-        "n_gates": len(gates), "n_gates_passed": sum(g["passed"] for g in gates), "wall_s": wall_s,
+        "n_gates": len(gates), "n_gates_passed": sum(g["passed"] for g in gates),
+        "n_findings": len(findings), "n_findings_expected": sum(f["passed"] for f in findings), "wall_s": wall_s,
         "cases": cases, "sections": [properties_section(), *extra_sections], "fmt": fmt,
         "css": (TEMPLATES / "style.css").read_text(),
     }
@@ -164,7 +166,8 @@ def _write_pdf(html: str, base: Path, path: Path) -> None:
 
 
 def junit_xml(results: dict) -> str:
-    """One test case per gate (and one per case that failed to run)."""
+    """One test case per gate and per finding (findings in their own class,
+    `<case>.findings`), and one per case that failed to run."""
     cases = []
     fails = 0
     for c in results["cases"]:
@@ -172,15 +175,16 @@ def junit_xml(results: dict) -> str:
             fails += 1
             cases.append(f'<testcase classname={quoteattr(c["id"])} name="run">'
                          f'<failure message={quoteattr(c["error"])}/></testcase>')
-        for g in c["gates"]:
-            name = f'{g["variant"]}.{g["metric"]}'
-            if g["passed"]:
-                cases.append(f'<testcase classname={quoteattr(c["id"])} name={quoteattr(name)}/>')
+        checks = ([(c["id"], g, gate_message(c["id"], g), g["source"]) for g in c["gates"]]
+                  + [(f'{c["id"]}.findings', f, finding_message(c["id"], f), f["source"]) for f in c["findings"]])
+        for classname, check, msg, source in checks:
+            name = f'{check["variant"]}.{check["metric"]}'
+            if check["passed"]:
+                cases.append(f'<testcase classname={quoteattr(classname)} name={quoteattr(name)}/>')
             else:
                 fails += 1
-                msg = gate_message(c["id"], g)
-                cases.append(f'<testcase classname={quoteattr(c["id"])} name={quoteattr(name)}>'
-                             f'<failure message={quoteattr(msg)}>{escape(g["source"])}</failure></testcase>')
+                cases.append(f'<testcase classname={quoteattr(classname)} name={quoteattr(name)}>'
+                             f'<failure message={quoteattr(msg)}>{escape(source)}</failure></testcase>')
     return ('<?xml version="1.0" encoding="utf-8"?>\n'
             f'<testsuite name="workbench-validate" tests="{len(cases)}" failures="{fails}">\n'
             + "\n".join(cases) + "\n</testsuite>\n")
@@ -190,3 +194,8 @@ def gate_message(case_id: str, g: dict) -> str:
     op = "<=" if g["kind"] == "max" else ">="
     return (f"{case_id}: {g['metric']} ({g['variant']}) = {fmt(g['value'])}, "
             f"needs {op} {fmt(g['threshold'])}")
+
+
+def finding_message(case_id: str, f: dict) -> str:
+    return (f"{case_id}: finding {f['metric']} ({f['variant']}) = {fmt(f['value'])}, expected "
+            f"{fmt(f['expected'])} +- {fmt(f['band'])} ({f['status']}: the reference model moved)")

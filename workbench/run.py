@@ -53,7 +53,8 @@ def run_case(case: Case, duration_s: float | None = None) -> RunOutcome:
         res = simulate(model, dur, s0, record_dt=float(case["run"]["record_dt_s"]))
         wall = time.perf_counter() - t0
     except (StaticSolveError, DivergenceError) as exc:
-        raise InputError(f"{case.path}: {exc}") from None
+        # still a numerical failure (exit 3), now naming the case
+        raise type(exc)(f"{case.path}: {exc}") from None
     res.provenance = {"case": case.path, "case_id": case.id, "structure": case["model.structure"]["source"]}
     return RunOutcome(case, res, wall, static_ms)
 

@@ -32,7 +32,8 @@ from workbench import log_inputs
 from workbench.cases import Case, build_model, case_log_paths, load_case
 from workbench.effects_case import with_effects
 from workbench.effects_compare import apply_comparison_effects
-from workbench.errors import InputError
+from workbench.errors import EXIT_BAD_INPUT, InputError, exit_code_for
+from workbench.gates import FindingResult, GateResult, evaluate_findings, evaluate_gates
 from workbench.provenance import code_version, json_safe
 from workbench.simlog import result_to_record
 
@@ -53,24 +54,6 @@ class Run:
 
 
 @dataclass
-class GateResult:
-    metric: str
-    variant: str
-    value: float | None
-    threshold: float
-    kind: str           # "max" or "min"
-    passed: bool
-    source: str
-    logs: list
-
-    @property
-    def margin(self) -> float | None:
-        if self.value is None:
-            return None
-        return self.threshold - self.value if self.kind == "max" else self.value - self.threshold
-
-
-@dataclass
 class CaseOutcome:
     case: Case
     runs: list[Run]
@@ -78,10 +61,12 @@ class CaseOutcome:
     tuned: dict = field(default_factory=dict)
     calibrated: dict = field(default_factory=dict)   # variant id -> the diagnosis fit of its effects
     error: str | None = None
+    error_code: int | None = None    # the exit status the error stands for (`workbench.errors`)
+    findings: list[FindingResult] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
-        return self.error is None and all(g.passed for g in self.gates)
+        return self.error is None and all(g.passed for g in self.gates) and all(f.passed for f in self.findings)
 
 
 def variants_of(case: Case) -> list[dict]:
@@ -232,28 +217,6 @@ def tune_drogue_lift(case: Case, variant: dict, records: list[FlightRecord]) -> 
     return float(res.x)
 
 
-def evaluate_gates(case: Case, runs: list[Run]) -> list[GateResult]:
-    out = []
-    default_variant = variants_of(case)[0]["id"]
-    for g in case["gates"]:
-        var = g["variant"] or default_variant
-        sel = [r for r in runs if r.variant == var and r.held_out
-               and (not g["logs"] or r.log_id in g["logs"])]
-        vals = [r.metrics.get(g["metric"]) for r in sel]
-        vals = [float(v) for v in vals if isinstance(v, (int, float)) and math.isfinite(v)]
-        kind = "max" if g["max"] is not None else "min"
-        thr = float(g["max"] if kind == "max" else g["min"])
-        if not vals:
-            out.append(GateResult(g["metric"], var, None, thr, kind, False, g["source"],
-                                  [r.log_id for r in sel]))
-            continue
-        vals_t = [abs(v) for v in vals] if g["abs"] else vals
-        value = max(vals_t) if kind == "max" else min(vals_t)
-        passed = value <= thr if kind == "max" else value >= thr
-        out.append(GateResult(g["metric"], var, value, thr, kind, passed, g["source"], [r.log_id for r in sel]))
-    return out
-
-
 def validate_cases(case_paths: list[Path], workers: int | None = None, progress: bool = True) -> list[CaseOutcome]:
     """Run every case's runs (in parallel over processes) and gate them."""
     from tqdm import tqdm
@@ -270,7 +233,7 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             try:
                 groups = group_measurements(measure_records(paths))
             except (LogError, InputError, ValueError) as exc:
-                outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc))
+                outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc), error_code=EXIT_BAD_INPUT)
                 continue
             outcomes[case.id] = CaseOutcome(case, [], [])
             jobs += [(case, variants_of(case)[0], g) for g in groups]
@@ -293,7 +256,7 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
                     v = dict(v, effects=calibrated[v["id"]]["effects"])
                 variants.append(v)
         except (LogError, InputError, StaticSolveError, DivergenceError) as exc:
-            outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc))
+            outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc), error_code=exit_code_for(exc))
             continue
         outcomes[case.id] = CaseOutcome(case, [], [], tuned=tuned, calibrated=calibrated)
         for v in variants:
@@ -312,7 +275,9 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
     bar.close()
     for oc in outcomes.values():
         if oc.error is None:
-            oc.gates = evaluate_gates(oc.case, oc.runs)
+            default_variant = variants_of(oc.case)[0]["id"]
+            oc.gates = evaluate_gates(oc.case["gates"], default_variant, oc.runs)
+            oc.findings = evaluate_findings(oc.case["findings"], default_variant, oc.runs)
     return [outcomes[c.id] for c in cases]
 
 
@@ -324,7 +289,10 @@ def _collect(outcomes, job, get, bar):
     except (LogError, InputError, StaticSolveError, DivergenceError, ValueError) as exc:
         where = Path(p).name if isinstance(p, (str, Path)) else f"records {', '.join(p['records'])}"
         msg = f"variant {v['id']}, {where}: {exc}"
-        oc.error = msg if oc.error is None else oc.error
+        if oc.error is None:
+            # a ValueError here is a record the comparison refuses: bad input
+            oc.error = msg
+            oc.error_code = EXIT_BAD_INPUT if isinstance(exc, ValueError) else exit_code_for(exc)
     bar.update(1)
 
 
@@ -334,7 +302,8 @@ def results_dict(outcomes: list[CaseOutcome]) -> dict:
     for oc in outcomes:
         cases.append({
             "id": oc.case.id, "title": oc.case.title, "kind": oc.case.kind, "file": oc.case.path,
-            "passed": oc.passed, "error": oc.error, "tuned": oc.tuned, "calibrated": oc.calibrated,
+            "passed": oc.passed, "error": oc.error, "error_code": oc.error_code, "tuned": oc.tuned,
+            "calibrated": oc.calibrated,
             "metrics": {f"{r.variant}/{r.log_id}/{k}": v for r in oc.runs for k, v in r.metrics.items()
                         if not isinstance(v, (list, dict))},
             "runs": [{"variant": r.variant, "log": r.log_id, "log_file": r.log_path, "held_out": r.held_out,
@@ -342,7 +311,10 @@ def results_dict(outcomes: list[CaseOutcome]) -> dict:
                      for r in oc.runs],
             "gates": [{"metric": g.metric, "variant": g.variant, "value": g.value, "threshold": g.threshold,
                        "kind": g.kind, "passed": g.passed, "margin": g.margin, "source": g.source,
-                       "logs": g.logs} for g in oc.gates],
+                       "part60": g.part60, "logs": g.logs} for g in oc.gates],
+            "findings": [{"metric": f.metric, "variant": f.variant, "value": f.value, "expected": f.expected,
+                          "band": f.band, "status": f.status, "passed": f.passed, "source": f.source,
+                          "band_source": f.band_source, "logs": f.logs} for f in oc.findings],
         })
     return json_safe({"passed": all(c["passed"] for c in cases), "code_version": code_version(),
                   "data_note": "Flight and bench records stand in for non-public program data: they come "

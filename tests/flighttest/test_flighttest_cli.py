@@ -68,7 +68,7 @@ def test_bad_input_is_one_line_error(tmp_path, case, verb):
     path = tmp_path / f"{case}.mcap"
     path.write_bytes(builder())
     res = run(verb, path)
-    assert res.exit_code != 0
+    assert res.exit_code == 2   # bad input (README "Exit status")
     assert "Traceback" not in res.output
     lines = res.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"Error: {path}: ")
@@ -77,7 +77,7 @@ def test_bad_input_is_one_line_error(tmp_path, case, verb):
 
 def test_missing_file_is_one_line_error(tmp_path):
     res = run("inspect", tmp_path / "nope.mcap")
-    assert res.exit_code != 0 and "Traceback" not in res.output
+    assert res.exit_code == 2 and "Traceback" not in res.output
     assert len(res.output.strip().splitlines()) == 1
 
 
@@ -98,7 +98,7 @@ def test_salvage_flag(tmp_path):
     path = tmp_path / "cut.mcap"
     path.write_bytes(buf[:chunks[-1] + 50])  # cut inside the last chunk
     refused = run("inspect", path)
-    assert refused.exit_code != 0 and "file truncated or damaged" in refused.output
+    assert refused.exit_code == 2 and "file truncated or damaged" in refused.output
     salvaged = run("inspect", "--salvage", path)
     assert salvaged.exit_code == 0, salvaged.output
     assert "/rig/accel/tip" in salvaged.output

@@ -15,8 +15,8 @@ from flighttest.mcap_io import make_record, read_record, write_record
 from solver.hose import HoseProperties
 from solver.model import Model
 from solver.properties import PropertyLibrary, PropertyTable
-from workbench.cli_properties import properties
 from workbench import hardware, report
+from workbench.cli.properties import properties
 from workbench.hardware import load_hardware
 from workbench.properties import build, store
 from workbench.properties.measure import measure_ringdown

@@ -5,6 +5,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from workbench.cli import cli
+from workbench.report import fmt
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -49,12 +50,21 @@ source = "loose check that the trail is in the right place"
 metric = "trail_shape_rms_error_m"
 max = {shape_max}
 source = "test threshold"
+
+[[findings]]
+metric = "drogue_steady_z_error_m"
+expected = {z_expected}
+band = 0.05
+source = "paper Fig. 14: without lift the trail hangs low; cases/kdc10_trail.toml's 40-element no-lift model is 0.706 m low on E7"
+band_source = "this 12-element model with assumed constants differs from the 40-element one"
 """
+# the no-lift trail's drogue height error on E7 (kdc10-trail finding: -0.706 m at 40 elements)
+Z_EXPECTED = -0.70
 
 
-def run_validate(tmp_path, shape_max):
+def run_validate(tmp_path, shape_max, z_expected=Z_EXPECTED):
     case = tmp_path / "trail_mini.toml"
-    case.write_text(CASE.replace("{shape_max}", str(shape_max)))
+    case.write_text(CASE.replace("{shape_max}", str(shape_max)).replace("{z_expected}", str(z_expected)))
     out = tmp_path / "out"
     res = CliRunner().invoke(cli, ["validate", str(case), "--out", str(out), "--no-progress"])
     return res, out
@@ -74,9 +84,25 @@ def test_validate_writes_results_and_passes(tmp_path):
     # the no-lift baseline trails below the log (paper Fig. 14): the drogue z error is negative
     assert m["baseline/TR-KDC10-E7/drogue_steady_z_error_m"] < 0
     assert 0 < m["baseline/TR-KDC10-E7/trail_shape_rms_error_m"] < 2.0
-    assert (out / "report.html").stat().st_size > 1000
+    (f,) = case["findings"]
+    assert f["metric"] == "drogue_steady_z_error_m" and f["variant"] == "baseline"
+    assert f["status"] == "as expected" and f["passed"] and f["logs"] == ["TR-KDC10-E7"]
+    assert f["value"] == m["baseline/TR-KDC10-E7/drogue_steady_z_error_m"]
+    assert abs(f["value"] - Z_EXPECTED) <= f["band"]
+    # the report: a gate row and a finding row each, with their values
+    html = (out / "report.html").read_text()
+    gate_rows = html.split('<tr class="gate-row">')[1:]
+    finding_rows = html.split('<tr class="finding-row">')[1:]
+    assert len(gate_rows) == 2 and len(finding_rows) == 1
+    shape = next(r for r in gate_rows if "trail_shape_rms_error_m" in r)
+    assert fmt(case["gates"][1]["value"]) in shape and "max 5" in shape and ">pass<" in shape
+    assert fmt(f["value"]) in finding_rows[0] and "as expected" in finding_rows[0] and "&plusmn; 0.05" in finding_rows[0]
+    assert "2 of 2 gates pass; 1 of 1 findings as expected" in html
+    assert "Overall: PASS" in html
     assert (out / "report.pdf").read_bytes()[:4] == b"%PDF"
-    assert "<testsuite" in (out / "junit.xml").read_text()
+    junit = (out / "junit.xml").read_text()
+    assert 'tests="3" failures="0"' in junit
+    assert 'classname="trail-mini.findings" name="baseline.drogue_steady_z_error_m"' in junit
     assert list((out / "figures").glob("*.png"))
 
 
@@ -87,6 +113,20 @@ def test_failing_gate_exits_one_and_names_it(tmp_path):
     assert "needs <= 0.001" in res.output
     junit = (out / "junit.xml").read_text()
     assert 'failures="1"' in junit
+    assert "Overall: FAIL" in (out / "report.html").read_text()
+
+
+def test_finding_that_moved_out_of_its_band_exits_one_as_changed(tmp_path):
+    # expected 0.5 m away from the measured -0.70 m: the reference model "moved"
+    res, out = run_validate(tmp_path, 5.0, z_expected=-0.2)
+    assert res.exit_code == 1, res.output
+    assert "CHANGED trail-mini: finding drogue_steady_z_error_m (baseline)" in res.output
+    assert "expected -0.2 +- 0.05 (changed" in res.output
+    (case,) = json.loads((out / "results.json").read_text())["cases"]
+    assert all(g["passed"] for g in case["gates"])
+    assert case["findings"][0]["status"] == "changed" and not case["passed"]
+    junit = (out / "junit.xml").read_text()
+    assert 'failures="1"' in junit and 'classname="trail-mini.findings"' in junit
 
 
 CALIBRATED = """

@@ -1,0 +1,90 @@
+"""`workbench validate`: cases against their logs, gates and findings, the report."""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from workbench.errors import EXIT_GATE_FAILED, InputError
+
+CASES = Path(__file__).resolve().parents[2] / "cases"
+
+
+def case_paths(targets: tuple[str, ...]) -> list[Path]:
+    """`all` (every cases/*.toml), or case files, or case names under cases/."""
+    if list(targets) == ["all"]:
+        return sorted(CASES.glob("*.toml"))
+    paths = []
+    for t in targets:
+        p = Path(t)
+        if not p.exists() and (CASES / f"{t}.toml").exists():
+            p = CASES / f"{t}.toml"
+        if not p.is_file():
+            also = "" if p.suffix == ".toml" or len(p.parts) > 1 else f" (nor cases/{t}.toml)"
+            raise InputError(f"{t}: no such case file{also}")
+        paths.append(p)
+    return paths
+
+
+def _diagnosis_section(diagnosis_file: Path) -> dict:
+    from workbench.diagnose import report_section
+    try:
+        diag = json.loads(diagnosis_file.read_text())
+        # the blind selftest's figures, when `diagnose --selftest` wrote them beside it
+        st = diagnosis_file.with_name("selftest.json")
+        if st.exists():
+            diag["selftest"] = json.loads(st.read_text())
+        return report_section(diag)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"{diagnosis_file}: not a diagnosis.json ({exc})") from None
+
+
+@click.command()
+@click.argument("targets", nargs=-1, required=True)
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
+              show_default=True, help="Folder for report.html, report.pdf, results.json, junit.xml.")
+@click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes (default: one per core).")
+@click.option("--no-progress", is_flag=True, help="No progress bar.")
+@click.option("--diagnosis", "diagnosis_file", type=click.Path(dir_okay=False, path_type=Path),
+              default=Path("reports/diagnose/diagnosis.json"), show_default=True,
+              help="A diagnosis.json to fold into the report as its own section (skipped if absent).")
+def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool,
+             diagnosis_file: Path) -> None:
+    """Run cases against their logs, check gates and findings: `validate all` or `validate CASE...`.
+
+    Exit status: 0 every gate passes and every finding is as expected; 1 a gate
+    fails or a finding changed; 2 a case is bad input; 3 a case's simulation
+    failed numerically (the highest applies)."""
+    from workbench.report import finding_message, gate_message, write_report
+    from workbench.validate import results_dict, validate_cases
+    paths = case_paths(targets)
+    t0 = time.perf_counter()
+    outcomes = validate_cases(paths, workers=workers, progress=not no_progress)
+    results = results_dict(outcomes)
+    wall = time.perf_counter() - t0
+    results["wall_s"] = wall
+    sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
+    files = write_report(outcomes, results, out_dir, wall, extra_sections=sections)
+    cases = results["cases"]
+    gates = [g for c in cases for g in c["gates"]]
+    findings = [f for c in cases for f in c["findings"]]
+    click.echo(f"{len(outcomes)} cases, {sum(g['passed'] for g in gates)}/{len(gates)} gates pass, "
+               f"{sum(f['passed'] for f in findings)}/{len(findings)} findings as expected, {wall:.1f} s; "
+               f"report {files['html']}")
+    for c in cases:
+        if c["error"]:
+            click.echo(f"ERROR {c['id']}: did not run: {c['error']}", err=True)
+        for g in c["gates"]:
+            if not g["passed"]:
+                click.echo(f"FAIL {gate_message(c['id'], g)}", err=True)
+        for f in c["findings"]:
+            if not f["passed"]:
+                click.echo(f"CHANGED {finding_message(c['id'], f)}", err=True)
+    codes = [c["error_code"] for c in cases if c["error"]]
+    if codes:
+        sys.exit(max(codes))
+    if not results["passed"]:
+        sys.exit(EXIT_GATE_FAILED)
