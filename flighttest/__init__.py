@@ -5,7 +5,9 @@ The package never imports the solver: records are measured on their own
 (`write_record` stores a simulation run in the contract).
 """
 from .analyze import analyze_record
-from .mcap_io import FlightRecord, LogError, make_record, read_record, read_record_bytes, write_record
+from .reader import read_record, read_record_bytes
+from .record import FlightRecord, LogError, make_record
+from .writer import write_record
 from .schema import REQUIRED_TOPICS, TEST_KINDS, TOPICS, TestInfo
 
 __all__ = [

@@ -16,8 +16,12 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from . import metrics as M
-from .mcap_io import FlightRecord, LogError
+from .metrics import (
+    axial_rocking, cross_correlation_lag, damping_ratio, dominant_frequency,
+    free_decay_segment, front_arrival_times, group_by_setpoint, hinge_onset, hose_field,
+    mean_shape, median_rate_hz, resample_uniform, wave_speed_from_arrivals,
+)
+from .record import FlightRecord, LogError
 from .schema import KT_TO_MPS, FT_TO_M
 
 
@@ -64,15 +68,15 @@ def _ring_down(record: FlightRecord, topic: str, t: np.ndarray, y: np.ndarray,
                prefix: str) -> dict[str, Any]:
     if len(t) < 64:
         raise _fail(record, topic, f"only {len(t)} samples: too short for a ring-down")
-    fs = M.median_rate_hz(t)
+    fs = median_rate_hz(t)
     # Frequencies with fewer than ~3 cycles in the record are drift, not the mode.
     fmin = 3.0 / (t[-1] - t[0])
     try:
-        seg = M.free_decay_segment(t, y, fmin=fmin)
+        seg = free_decay_segment(t, y, fmin=fmin)
         tt, yy = t[seg.i_start:seg.i_end], y[seg.i_start:seg.i_end]
         if seg.i_end - seg.i_start < 4 * fs / seg.frequency_hz:
             raise ValueError("free decay shorter than 4 cycles")
-        est = M.damping_ratio(tt, yy, f_hint=seg.frequency_hz)
+        est = damping_ratio(tt, yy, f_hint=seg.frequency_hz)
     except ValueError as exc:
         raise _fail(record, topic, f"no measurable free decay ({exc})") from None
     return {
@@ -100,17 +104,17 @@ def _ringdown_bending(record: FlightRecord) -> dict[str, Any]:
 def _ringdown_axial(record: FlightRecord) -> dict[str, Any]:
     df = record.topic("/rig/accel/weight")
     t = df.index.to_numpy(float)
-    axial, rocking = M.axial_rocking(df["a1_mps2"], df["a2_mps2"])
+    axial, rocking = axial_rocking(df["a1_mps2"], df["a2_mps2"])
     out = _ring_down(record, "/rig/accel/weight", t, axial, "axial_")
     i_rel = int(np.argmax(np.abs(axial - np.median(axial))))
     # Rocking after the strike: how much of the weight's motion is not axial.
     after = rocking[i_rel:]
-    fs = M.median_rate_hz(t)
+    fs = median_rate_hz(t)
     out["rocking_rms_mps2"] = _f(np.std(after))
     out["axial_rms_mps2"] = _f(np.std(axial[i_rel:]))
     if len(after) >= 64:
         try:
-            out["rocking_frequency_hz"] = _f(M.dominant_frequency(
+            out["rocking_frequency_hz"] = _f(dominant_frequency(
                 after, fs, fmin=3.0 / (t[-1] - t[i_rel])).frequency_hz)
         except ValueError:
             out["rocking_frequency_hz"] = None
@@ -172,21 +176,21 @@ def _pitch_doublet(record: FlightRecord) -> dict[str, Any]:
     out.update({"doublet_start_s": _f(t_in0), "doublet_end_s": _f(t_in1),
                 "tow_point_z_amplitude_m": _f(dev.max())})
     td, zd = _series(ors, "z_m", "valid")
-    fs = M.median_rate_hz(ors.index.to_numpy(float))
-    tg, zg = M.resample_uniform(td, zd, fs, t_in1, None)
+    fs = median_rate_hz(ors.index.to_numpy(float))
+    tg, zg = resample_uniform(td, zd, fs, t_in1, None)
     if len(tg) < 16:
         raise _fail(record, "/ors/drogue", "record ends before the drogue response to the doublet")
     # Disturbance level before the doublet (turbulence, ORS noise), band-limited
     # like the response, sets where the log decrement stops trusting peaks.
-    tq, zq = M.resample_uniform(td, zd, fs, None, t_in0)
+    tq, zq = resample_uniform(td, zd, fs, None, t_in0)
     try:
-        f0 = M.dominant_frequency(zg, fs, fmin=3.0 / (tg[-1] - tg[0])).frequency_hz
+        f0 = dominant_frequency(zg, fs, fmin=3.0 / (tg[-1] - tg[0])).frequency_hz
         floor = None
         if len(tq) > 4 * fs / f0:
             sos = signal.butter(2, [f0 / 2, min(2 * f0, 0.45 * fs)], btype="bandpass",
                                 fs=fs, output="sos")
             floor = 3.0 * float(np.std(signal.sosfiltfilt(sos, zq - zq.mean())))
-        est = M.damping_ratio(tg, zg, f_hint=f0, min_amplitude=floor)
+        est = damping_ratio(tg, zg, f_hint=f0, min_amplitude=floor)
     except ValueError as exc:
         raise _fail(record, "/ors/drogue", f"no measurable drogue response ({exc})") from None
     out.update({
@@ -214,7 +218,7 @@ def _trail(record: FlightRecord, bin_m: float = 1.0) -> dict[str, Any]:
     ors, out = _drogue(record)
     out.update(_steady(ors, float(ors.index[0]), float(ors.index[-1])))
     hose = record.topic("/video/hose")
-    shape = M.mean_shape(hose["x_m"], hose["z_m"], bin_m=bin_m)
+    shape = mean_shape(hose["x_m"], hose["z_m"], bin_m=bin_m)
     out["hose_shape"] = {
         "bin_m": bin_m,
         "x_m": [_f(v) for v in shape["x_m"]],
@@ -253,7 +257,7 @@ def _smooth(t: np.ndarray, y: np.ndarray, window_s: float = 0.3) -> np.ndarray:
     """Running median over `window_s`: an extreme taken from it is an extreme
     of the motion, not of one noisy sample; 0.3 s is short beside the
     seconds-long pushes and take-ups it is used on."""
-    k = int(round(window_s * M.median_rate_hz(t))) | 1
+    k = int(round(window_s * median_rate_hz(t))) | 1
     return signal.medfilt(y, k) if k > 1 and len(y) > k else y
 
 
@@ -282,8 +286,8 @@ def _engagement(record: FlightRecord) -> dict[str, Any]:
     try:
         wx = _move_window(t_x, x, tc, t_stop)
         wl = _move_window(t_r, L, tc, t_stop)
-        t0x, _ = M.hinge_onset(t_x[wx], x[wx])
-        t0l, _ = M.hinge_onset(t_r[wl], L[wl])
+        t0x, _ = hinge_onset(t_x[wx], x[wx])
+        t0l, _ = hinge_onset(t_r[wl], L[wl])
         out.update({"drogue_motion_onset_s": _f(t0x), "reel_motion_onset_s": _f(t0l),
                     "reel_delay_s": _f(t0l - t0x)})
     except ValueError:
@@ -291,11 +295,11 @@ def _engagement(record: FlightRecord) -> dict[str, Any]:
     # Cross-check: lag maximising the correlation of the two velocities over the contact.
     fs = 50.0
     lo, hi = tc - 1.0, t_stop
-    tg, xg = M.resample_uniform(t_x, x, fs, lo, hi)
-    _, lg = M.resample_uniform(t_r, L, fs, lo, hi)
+    tg, xg = resample_uniform(t_x, x, fs, lo, hi)
+    _, lg = resample_uniform(t_r, L, fs, lo, hi)
     n = min(len(xg), len(lg))
     if n > 16:
-        lag, corr = M.cross_correlation_lag(np.gradient(xg[:n]), np.gradient(lg[:n]), fs,
+        lag, corr = cross_correlation_lag(np.gradient(xg[:n]), np.gradient(lg[:n]), fs,
                                             max_lag_s=1.0)
         out["reel_lag_xcorr_s"] = _f(lag)
 
@@ -319,10 +323,10 @@ def _wave_speed(record: FlightRecord, tc: float, t_stop: float) -> dict[str, Any
     xs = np.arange(math.ceil(x_lo) + 1.0, math.floor(x_hi) + 1e-9, 1.0)
     if len(xs) < 4:
         return {"wave_speed_mps": None}
-    frames, Z = M.hose_field(h["t_s"], h["x_m"], h["z_m"], xs)
-    arrivals = M.front_arrival_times(frames, Z, tc, horizon_s=min(5.0, t_stop - tc))
+    frames, Z = hose_field(h["t_s"], h["x_m"], h["z_m"], xs)
+    arrivals = front_arrival_times(frames, Z, tc, horizon_s=min(5.0, t_stop - tc))
     try:
-        ws = M.wave_speed_from_arrivals(xs, arrivals)
+        ws = wave_speed_from_arrivals(xs, arrivals)
     except ValueError:
         return {"wave_speed_mps": None}
     return {"wave_speed_mps": _f(ws.speed_mps), "wave_speed_stderr_mps": _f(ws.stderr_mps),
@@ -364,7 +368,7 @@ def summarize_by_setpoint(results: list[dict[str, Any]], key: str) -> pd.DataFra
     for hose in sorted({h for h, _, _ in rows}):
         sp = [s for h, s, _ in rows if h == hose]
         val = [v for h, _, v in rows if h == hose]
-        g = M.group_by_setpoint(sp, val)
+        g = group_by_setpoint(sp, val)
         g.insert(0, "hose", hose)
         frames.append(g)
     return pd.concat(frames) if frames else pd.DataFrame()

@@ -33,7 +33,6 @@ NUMERIC_KEYS = frozenset({
     "hose_length_ft", "section_length_m", "tip_mass_kg", "accel_lever_m",
     "tanker_gross_weight_lb",
 })
-INTEGER_KEYS = frozenset({"repetition", "engagement"})
 HOSE_FUEL_VALUES = ("full", "empty")
 
 # Field kinds used by the message validator.
@@ -110,10 +109,6 @@ LB_TO_KG = 0.45359237
 
 def fahrenheit_to_kelvin(t_F: float) -> float:
     return (t_F - 32.0) * 5.0 / 9.0 + 273.15
-
-
-def fahrenheit_to_celsius(t_F: float) -> float:
-    return (t_F - 32.0) * 5.0 / 9.0
 
 
 class MetadataError(ValueError):

@@ -53,7 +53,7 @@ import pandas as pd
 
 from flighttest import metrics as M
 from flighttest.analyze import analyze_record
-from flighttest.mcap_io import FlightRecord, LogError, make_record, read_record
+from flighttest import FlightRecord, LogError, make_record, read_record
 from solver import kernel as K
 from solver.atmosphere import isa
 from solver.hose import HoseProperties
@@ -590,7 +590,7 @@ def _code_version() -> dict:
     dirty = git("status", "--porcelain", "--", "solver", "flighttest", "workbench")
     # the files whose code made the numbers, hashed: exact even when uncommitted
     files = ("workbench/properties.py", "solver/properties.py", "solver/kernel.py", "solver/model.py",
-             "solver/statics.py", "solver/integrate.py", "flighttest/metrics.py", "flighttest/analyze.py")
+             "solver/statics.py", "solver/integrate.py", "flighttest/metrics/damping.py", "flighttest/metrics/spectral.py", "flighttest/metrics/sampling.py", "flighttest/analyze.py")
     return {"git_commit": commit, "uncommitted_changes_in_code": bool(dirty) if dirty is not None else None,
             "source_sha256": {f: _sha256(ROOT / f) for f in files if (ROOT / f).exists()}}
 

@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import make_corrupt as MC  # noqa: E402
 
 from flighttest import schema as S  # noqa: E402
-from flighttest.mcap_io import (LogError, make_record, read_record, read_record_bytes,  # noqa: E402
+from flighttest import (LogError, make_record, read_record, read_record_bytes,  # noqa: E402
                                 write_record)
 from flighttest.schema import TestInfo  # noqa: E402
 
