@@ -33,13 +33,10 @@ def _f(x: Any) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _series(df: pd.DataFrame, col: str, valid: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _series(df: pd.DataFrame, col: str) -> tuple[np.ndarray, np.ndarray]:
     t = df.index.to_numpy(dtype=float)
     y = df[col].to_numpy(dtype=float)
-    if valid is not None and valid in df:
-        keep = df[valid].to_numpy(dtype=bool) & np.isfinite(y)
-    else:
-        keep = np.isfinite(y)
+    keep = np.isfinite(y)
     return t[keep], y[keep]
 
 
@@ -141,17 +138,17 @@ def _air_data(record: FlightRecord) -> dict[str, Any]:
     }
 
 
-def _drogue(record: FlightRecord) -> tuple[pd.DataFrame, dict[str, Any]]:
+def _drogue(record: FlightRecord) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, Any]]:
+    """(all tracker rows, for the time base; the valid fixes, for the values; figures)."""
     ors = record.topic("/ors/drogue")
-    valid = ors["valid"].to_numpy(bool)
-    if valid.sum() < 3:
+    fixes = record.tracker_fixes()
+    if len(fixes) < 3:
         raise _fail(record, "/ors/drogue", "fewer than 3 valid drogue fixes")
-    return ors, {"drogue_valid_fraction": _f(valid.mean())}
+    return ors, fixes, {"drogue_valid_fraction": _f(len(fixes) / len(ors))}
 
 
-def _steady(ors: pd.DataFrame, t_from: float, t_to: float) -> dict[str, Any]:
-    m = (ors.index >= t_from) & (ors.index <= t_to) & ors["valid"].to_numpy(bool)
-    sel = ors[m]
+def _steady(fixes: pd.DataFrame, t_from: float, t_to: float) -> dict[str, Any]:
+    sel = fixes[(fixes.index >= t_from) & (fixes.index <= t_to)]
     # Median: robust to a stray ORS fix without assuming anything about it.
     return {
         "drogue_steady_x_m": _f(sel["x_m"].median()),
@@ -164,7 +161,7 @@ def _steady(ors: pd.DataFrame, t_from: float, t_to: float) -> dict[str, Any]:
 
 
 def _pitch_doublet(record: FlightRecord) -> dict[str, Any]:
-    ors, out = _drogue(record)
+    ors, fixes, out = _drogue(record)
     tp = record.topic("/tanker/tow_point")
     t_tp = tp.index.to_numpy(float)
     z_tp = tp["z_m"].to_numpy(float)
@@ -175,7 +172,7 @@ def _pitch_doublet(record: FlightRecord) -> dict[str, Any]:
     t_in0, t_in1 = float(t_tp[big[0]]), float(t_tp[big[-1]])
     out.update({"doublet_start_s": _f(t_in0), "doublet_end_s": _f(t_in1),
                 "tow_point_z_amplitude_m": _f(dev.max())})
-    td, zd = _series(ors, "z_m", "valid")
+    td, zd = _series(fixes, "z_m")
     fs = median_rate_hz(ors.index.to_numpy(float))
     tg, zg = resample_uniform(td, zd, fs, t_in1, None)
     if len(tg) < 16:
@@ -209,14 +206,14 @@ def _pitch_doublet(record: FlightRecord) -> dict[str, Any]:
     t_settle = t_in1 + math.log(max(amp / max(level, 1e-9), 1.0)) / s if s > 0 else t_end
     if not t_end - t_settle >= 2.0:
         t_settle = t_end - 0.25 * (t_end - t_in1)
-    out.update(_steady(ors, t_settle, t_end))
+    out.update(_steady(fixes, t_settle, t_end))
     out.update(_air_data(record))
     return out
 
 
 def _trail(record: FlightRecord, bin_m: float = 1.0) -> dict[str, Any]:
-    ors, out = _drogue(record)
-    out.update(_steady(ors, float(ors.index[0]), float(ors.index[-1])))
+    ors, fixes, out = _drogue(record)
+    out.update(_steady(fixes, float(ors.index[0]), float(ors.index[-1])))
     hose = record.topic("/video/hose")
     shape = mean_shape(hose["x_m"], hose["z_m"], bin_m=bin_m)
     out["hose_shape"] = {
@@ -229,16 +226,6 @@ def _trail(record: FlightRecord, bin_m: float = 1.0) -> dict[str, Any]:
     out["hose_frames"] = int(hose["t_s"].nunique())
     out.update(_air_data(record))
     return out
-
-
-def _events(record: FlightRecord) -> tuple[float | None, float | None]:
-    ev = record.topic("/probe/events")
-    contact = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "contact"]
-    if not contact:
-        return None, None
-    tc = contact[0]
-    disc = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "disconnect" and t > tc]
-    return tc, (disc[0] if disc else None)
 
 
 def _move_window(t: np.ndarray, y: np.ndarray, t0: float, t_end: float,
@@ -262,8 +249,8 @@ def _smooth(t: np.ndarray, y: np.ndarray, window_s: float = 0.3) -> np.ndarray:
 
 
 def _engagement(record: FlightRecord) -> dict[str, Any]:
-    ors, out = _drogue(record)
-    tc, td = _events(record)
+    ors, fixes, out = _drogue(record)
+    tc, td = record.contact_events()
     out.update({"contact_time_s": _f(tc), "disconnect_time_s": _f(td)})
     if tc is None:
         return out
@@ -275,7 +262,7 @@ def _engagement(record: FlightRecord) -> dict[str, Any]:
     during = (t_r >= tc) & (t_r <= t_stop)
     out["reel_takeup_max_m"] = _f(base_L - _smooth(t_r, L)[during].min()) if during.any() else None
 
-    t_x, x = _series(ors, "x_m", "valid")
+    t_x, x = _series(fixes, "x_m")
     base_x = float(np.median(x[(t_x >= tc - 2.0) & (t_x < tc)]))
     in_contact = (t_x >= tc) & (t_x <= t_stop)
     out["drogue_pushback_max_m"] = (_f(base_x - _smooth(t_x, x)[in_contact].min())
