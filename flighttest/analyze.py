@@ -334,7 +334,9 @@ def analyze_record(record: FlightRecord) -> dict[str, Any]:
     """Measured quantities of one record (see the module docstring).
 
     Raises LogError naming the topic when the record lacks what its kind
-    needs or the signal does not allow the measurement.
+    needs or the signal does not allow the measurement.  `warnings` (present
+    only when there are any) lists what the reader reported of the record:
+    gaps, a recording read without its summary.
     """
     info = record.info
     out: dict[str, Any] = {"test_id": info.test_id, "test_kind": info.test_kind,
@@ -344,6 +346,10 @@ def analyze_record(record: FlightRecord) -> dict[str, Any]:
     if info.repetition is not None:
         out["repetition"] = info.repetition
     out.update(_ANALYSES[info.test_kind](record))
+    if record.warnings:
+        # What the reader found suspicious but kept (gaps, a cut recording):
+        # reported beside the figures measured from it, never hidden.
+        out["warnings"] = list(record.warnings)
     return out
 
 

@@ -13,7 +13,8 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from .schema import BOOLEAN, EVENT, NULLABLE_NUMBER, NUMBER, POINT_FIELDS, POINTS, PROBE_EVENTS, TOPICS
+from .schema import (BOOLEAN, EVENT, FIELD_RANGES, NULLABLE_NUMBER, NUMBER, POINT_FIELDS, POINTS,
+                     PROBE_EVENTS, TOPICS)
 
 # Nanosecond times are held as int64 (pandas, numpy): 2**63 ns is in 2262.
 _MAX_TIME_NS = 1 << 63
@@ -133,6 +134,17 @@ def parse_topic(topic: str, msgs: list[tuple[int, int, bytes]]) -> tuple[np.ndar
                     cols[name].append(pts)
         except ValueError as exc:
             raise TopicError(where, f"message {i} (log_time {log_time}): {exc}") from None
+    for name in spec:
+        rng = FIELD_RANGES.get((topic, name))
+        if rng is None or not cols[name]:
+            continue
+        values = np.asarray(cols[name], dtype=float)
+        bad = np.flatnonzero(~rng.holds(values))
+        if len(bad):
+            i = int(bad[0])
+            raise TopicError(f"topic {topic}", f"message {i} (log_time {msgs[i][0]}): field "
+                                               f"{name!r} = {values[i]:g} is outside the physical "
+                                               f"range {rng}")
     times = np.fromiter((m[0] for m in msgs), dtype=np.int64, count=len(msgs))
     return times, cols
 

@@ -6,10 +6,11 @@ record (`container.walk`: every chunk CRC, and *where* a damaged file is
 damaged; a recording cut short has no summary, so the summary index is not
 trusted), then checked against the contract: metadata keys and their
 physical ranges (`schema.TestInfo`), channels and schemas, every message
-(`messages.parse_topic`) and the tracker fixes' plausibility
-(`plausibility.check_tracker`).  Anything that breaks the contract raises
-`LogError`, whose message is a single line naming the file, the topic or
-metadata key, and what is wrong; no partial record is ever returned.
+(`messages.parse_topic`) and what the values show together
+(`plausibility.check`: refused, or reported in `FlightRecord.warnings`).
+Anything that breaks the contract raises `LogError`, whose message is a
+single line naming the file, the topic or metadata key, and what is wrong;
+no partial record is ever returned.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ import numpy as np
 
 from .container import MAGIC, ContainerDamage, RawRecords, walk
 from .messages import TopicError, decode_json, frame_topic, parse_topic
+from .plausibility import check as check_plausibility
 from .record import FlightRecord, LogError
 from .schema import (MESSAGE_ENCODING, METADATA_NAME, REQUIRED_TOPICS, SCHEMA_ENCODING, TOPICS, MetadataError,
                      TestInfo, hardware_ids)
@@ -176,5 +178,7 @@ def _parse(buf: bytes, path: Path | None, *, check_required: bool, salvage: bool
         raise LogError(label, "container", "no messages on any topic of the contract")
     start_ns = min(firsts)
     topics = {topic: frame_topic(topic, t, cols, start_ns) for topic, (t, cols) in parsed.items()}
-    return FlightRecord(info=info, topics=topics, start_time_ns=start_ns, path=path,
-                        had_summary=raw.had_summary, warnings=warnings)
+    record = FlightRecord(info=info, topics=topics, start_time_ns=start_ns, path=path,
+                          had_summary=raw.had_summary, warnings=warnings)
+    record.warnings.extend(check_plausibility(record, label))
+    return record

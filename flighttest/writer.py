@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from .messages import TopicError, parse_topic
+from .plausibility import check as check_plausibility
 from .record import FlightRecord, LogError
 from .schema import (BOOLEAN, EVENT, MESSAGE_ENCODING, METADATA_NAME, NULLABLE_NUMBER, NUMBER, POINT_FIELDS,
                      POINTS, PROBE_EVENTS, SCHEMA_ENCODING, TOPICS, MetadataError, TestInfo)
@@ -198,7 +199,8 @@ def write_record(path: str | os.PathLike, record: FlightRecord, *, compression: 
     jsonschema, for Foxglove's 3D panel.  Readers of the contract ignore them.
     The record is checked as it is written: what cannot be read back
     (non-finite values, unknown topics or fields, times that do not
-    increase) raises LogError and leaves no file behind.
+    increase, values outside their physical range, implausible tracker
+    fixes) raises LogError and leaves no file behind.
     """
     from mcap.writer import CompressionType, Writer
 
@@ -239,6 +241,7 @@ def write_record(path: str | os.PathLike, record: FlightRecord, *, compression: 
             raise LogError(path, exc.where, exc.problem) from None
         rows.extend((ns, topic, data) for ns, _, data in encoded)
 
+    check_plausibility(record, path)  # the reader's refusals too; its warnings are not an error
     fox: list[tuple[str, str, int, dict]] = _foxglove_messages(record) if foxglove else []
     rows.sort(key=lambda r: r[0])
     tmp = path.with_name(path.name + ".part")
