@@ -230,6 +230,12 @@ def walk(buf: bytes, salvage: bool) -> RawRecords:
             raw.add_message(m.channel_id, m.log_time, m.publish_time, bytes(m.data))
         elif opcode == Opcode.METADATA and not data_end_seen:
             md = _decode(R.Metadata.read, body, pos)
+            # `Metadata.read` keeps the last of two equal keys: a map whose
+            # pairs take more bytes than the distinct keys do repeats one.
+            pairs = sum(8 + len(k.encode()) + len(v.encode()) for k, v in md.metadata.items())
+            if 8 + len(md.name.encode()) + pairs != length:
+                raise ContainerDamage(f"Metadata record at byte {pos} repeats a key or holds "
+                                      f"bytes that are not key-value pairs")
             raw.metadata.append((md.name, dict(md.metadata)))
         elif opcode == Opcode.STATISTICS:
             raw.stats = _decode(R.Statistics.read, body, pos)
