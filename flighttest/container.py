@@ -8,8 +8,9 @@ around them is this module's because `mcap.stream_reader.StreamReader` and
 - a record's fields are not bounded by its declared length or by the end of
   the file (a short read returns fewer bytes in silence), so a damaged length
   would be half-read instead of refused;
-- a recording cut inside a record raises `EndOfFile` and loses what came
-  before the cut, where `salvage` keeps the complete records;
+- a recording cut inside a record is not told apart from damage (the short
+  read hands a partial record on), where `salvage` must stop at the last
+  complete record;
 - the summary CRC, the closing magic, "Header first" and the Statistics
   counts are not checked, and nothing says at which byte a file is damaged;
 - zstd chunks are inflated into a buffer sized by the (possibly damaged)
