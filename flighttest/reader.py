@@ -24,8 +24,8 @@ from .container import MAGIC, ContainerDamage, RawRecords, walk
 from .messages import TopicError, decode_json, frame_topic, parse_topic
 from .plausibility import check as check_plausibility
 from .record import FlightRecord, LogError
-from .schema import (MESSAGE_ENCODING, METADATA_NAME, REQUIRED_TOPICS, SCHEMA_ENCODING, TOPICS, MetadataError,
-                     TestInfo, hardware_ids)
+from .schema import (MESSAGE_ENCODING, METADATA_NAME, REQUIRED_TOPICS, SCHEMA_ENCODING, TOPICS,
+                     MetadataError, TestInfo, hardware_ids)
 
 # Larger than any record of the contract (the longest ring-down at 1 kHz is a
 # few MB): a file beyond this is not a test record, and reading it whole to

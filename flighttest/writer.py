@@ -19,8 +19,9 @@ import pandas as pd
 from .messages import TopicError, parse_topic
 from .plausibility import check as check_plausibility
 from .record import FlightRecord, LogError
-from .schema import (BOOLEAN, EVENT, MESSAGE_ENCODING, METADATA_NAME, NULLABLE_NUMBER, NUMBER, POINT_FIELDS,
-                     POINTS, PROBE_EVENTS, SCHEMA_ENCODING, TOPICS, MetadataError, TestInfo)
+from .schema import (BOOLEAN, EVENT, MESSAGE_ENCODING, METADATA_NAME, NULLABLE_NUMBER, NUMBER,
+                     POINT_FIELDS, POINTS, PROBE_EVENTS, SCHEMA_ENCODING, TOPICS, MetadataError,
+                     TestInfo)
 
 
 def topic_jsonschema(topic: str) -> dict:
@@ -170,11 +171,9 @@ def _foxglove_messages(record: FlightRecord) -> list[tuple[str, str, int, dict]]
                            "color": {"r": 0.1, "g": 0.1, "b": 0.1, "a": 1.0},
                            "colors": [], "indices": []}],
                 "spheres": []}]}))
-    ors = record.topics.get("/ors/drogue")
-    if ors is not None:
-        for t, x, y, z, ok in zip(ors.index, ors["x_m"], ors["y_m"], ors["z_m"], ors["valid"]):
-            if not ok:
-                continue
+    if len(record.topics.get("/ors/drogue", ())):  # an empty topic draws no drogue
+        fixes = record.tracker_fixes()
+        for t, x, y, z in zip(fixes.index, fixes["x_m"], fixes["y_m"], fixes["z_m"]):
             ns = start + int(round(t * 1e9))
             out.append((FOXGLOVE_DROGUE_TOPIC, "foxglove.SceneUpdate", ns, {"deletions": [], "entities": [{
                 "timestamp": _time(ns), "frame_id": "tow_point", "id": "drogue",

@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import make_corrupt as MC  # noqa: E402
 
 from flighttest import FlightRecord, LogError, analyze_record, make_record, read_record  # noqa: E402
-from flighttest import read_record_bytes  # noqa: E402
+from flighttest import read_record_bytes, write_record  # noqa: E402
 from flighttest.plausibility import MAX_TRACKER_STEP_M, REACH_MARGIN  # noqa: E402
 from flighttest.reader import MAX_RECORD_BYTES  # noqa: E402
 from flighttest.schema import FIELD_RANGES, METADATA_RANGES, TestInfo  # noqa: E402
@@ -122,7 +122,8 @@ def _flight(ors_xyz, valid=None, n=None, dt_ns=100_000_000, meta=None, drop_air=
         t = MC.T0 + i * dt_ns
         if i not in drop_air:
             msgs.append(("/air_data", t, t, _air()))
-        msgs.append(("/tanker/tow_point", t + 1000, t + 1000, MC._js({"x_m": 0.0, "y_m": 0.0, "z_m": 0.0})))
+        tow = MC._js({"x_m": 0.0, "y_m": 0.0, "z_m": 0.0})
+        msgs.append(("/tanker/tow_point", t + 1000, t + 1000, tow))
         x, y, z = ors_xyz[i]
         pos = {"x_m": x, "y_m": y, "z_m": z} if valid[i] else {"x_m": None, "y_m": None, "z_m": None}
         msgs.append(("/ors/drogue", t + 2000, t + 2000, MC._js(dict(pos, valid=valid[i]))))
@@ -203,10 +204,9 @@ def test_writer_refuses_what_the_reader_would(tmp_path):
     rec = read_record_bytes(_flight(STEADY))
     ors = rec.topics["/ors/drogue"].copy()
     ors.iloc[5, ors.columns.get_loc("z_m")] = 2800.0
-    with pytest.raises(LogError, match=r"topic /ors/drogue: fix at t_s=0\.500 is .* beyond the hose's reach"):
-        from flighttest import write_record
-        write_record(tmp_path / "w.mcap", make_record(rec.info, dict(rec.topics, **{"/ors/drogue": ors}),
-                                                      rec.start_time_ns))
+    bad = make_record(rec.info, dict(rec.topics, **{"/ors/drogue": ors}), rec.start_time_ns)
+    with pytest.raises(LogError, match=r"topic /ors/drogue: fix at t_s=0\.500 is .* beyond the hose"):
+        write_record(tmp_path / "w.mcap", bad)
     assert not list(tmp_path.iterdir())
 
 
