@@ -16,8 +16,12 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from . import metrics as M
-from .mcap_io import FlightRecord, LogError
+from .metrics import (
+    axial_rocking, cross_correlation_lag, damping_ratio, dominant_frequency,
+    free_decay_segment, front_arrival_times, group_by_setpoint, hinge_onset, hose_field,
+    mean_shape, median_rate_hz, resample_uniform, wave_speed_from_arrivals,
+)
+from .record import FlightRecord, LogError
 from .schema import KT_TO_MPS, FT_TO_M
 
 
@@ -29,13 +33,10 @@ def _f(x: Any) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _series(df: pd.DataFrame, col: str, valid: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _series(df: pd.DataFrame, col: str) -> tuple[np.ndarray, np.ndarray]:
     t = df.index.to_numpy(dtype=float)
     y = df[col].to_numpy(dtype=float)
-    if valid is not None and valid in df:
-        keep = df[valid].to_numpy(dtype=bool) & np.isfinite(y)
-    else:
-        keep = np.isfinite(y)
+    keep = np.isfinite(y)
     return t[keep], y[keep]
 
 
@@ -64,15 +65,15 @@ def _ring_down(record: FlightRecord, topic: str, t: np.ndarray, y: np.ndarray,
                prefix: str) -> dict[str, Any]:
     if len(t) < 64:
         raise _fail(record, topic, f"only {len(t)} samples: too short for a ring-down")
-    fs = M.median_rate_hz(t)
+    fs = median_rate_hz(t)
     # Frequencies with fewer than ~3 cycles in the record are drift, not the mode.
     fmin = 3.0 / (t[-1] - t[0])
     try:
-        seg = M.free_decay_segment(t, y, fmin=fmin)
+        seg = free_decay_segment(t, y, fmin=fmin)
         tt, yy = t[seg.i_start:seg.i_end], y[seg.i_start:seg.i_end]
         if seg.i_end - seg.i_start < 4 * fs / seg.frequency_hz:
             raise ValueError("free decay shorter than 4 cycles")
-        est = M.damping_ratio(tt, yy, f_hint=seg.frequency_hz)
+        est = damping_ratio(tt, yy, f_hint=seg.frequency_hz)
     except ValueError as exc:
         raise _fail(record, topic, f"no measurable free decay ({exc})") from None
     return {
@@ -100,17 +101,17 @@ def _ringdown_bending(record: FlightRecord) -> dict[str, Any]:
 def _ringdown_axial(record: FlightRecord) -> dict[str, Any]:
     df = record.topic("/rig/accel/weight")
     t = df.index.to_numpy(float)
-    axial, rocking = M.axial_rocking(df["a1_mps2"], df["a2_mps2"])
+    axial, rocking = axial_rocking(df["a1_mps2"], df["a2_mps2"])
     out = _ring_down(record, "/rig/accel/weight", t, axial, "axial_")
     i_rel = int(np.argmax(np.abs(axial - np.median(axial))))
     # Rocking after the strike: how much of the weight's motion is not axial.
     after = rocking[i_rel:]
-    fs = M.median_rate_hz(t)
+    fs = median_rate_hz(t)
     out["rocking_rms_mps2"] = _f(np.std(after))
     out["axial_rms_mps2"] = _f(np.std(axial[i_rel:]))
     if len(after) >= 64:
         try:
-            out["rocking_frequency_hz"] = _f(M.dominant_frequency(
+            out["rocking_frequency_hz"] = _f(dominant_frequency(
                 after, fs, fmin=3.0 / (t[-1] - t[i_rel])).frequency_hz)
         except ValueError:
             out["rocking_frequency_hz"] = None
@@ -137,17 +138,17 @@ def _air_data(record: FlightRecord) -> dict[str, Any]:
     }
 
 
-def _drogue(record: FlightRecord) -> tuple[pd.DataFrame, dict[str, Any]]:
+def _drogue(record: FlightRecord) -> tuple[pd.DataFrame, pd.DataFrame, dict[str, Any]]:
+    """(all tracker rows, for the time base; the valid fixes, for the values; figures)."""
     ors = record.topic("/ors/drogue")
-    valid = ors["valid"].to_numpy(bool)
-    if valid.sum() < 3:
+    fixes = record.tracker_fixes()
+    if len(fixes) < 3:
         raise _fail(record, "/ors/drogue", "fewer than 3 valid drogue fixes")
-    return ors, {"drogue_valid_fraction": _f(valid.mean())}
+    return ors, fixes, {"drogue_valid_fraction": _f(len(fixes) / len(ors))}
 
 
-def _steady(ors: pd.DataFrame, t_from: float, t_to: float) -> dict[str, Any]:
-    m = (ors.index >= t_from) & (ors.index <= t_to) & ors["valid"].to_numpy(bool)
-    sel = ors[m]
+def _steady(fixes: pd.DataFrame, t_from: float, t_to: float) -> dict[str, Any]:
+    sel = fixes[(fixes.index >= t_from) & (fixes.index <= t_to)]
     # Median: robust to a stray ORS fix without assuming anything about it.
     return {
         "drogue_steady_x_m": _f(sel["x_m"].median()),
@@ -160,7 +161,7 @@ def _steady(ors: pd.DataFrame, t_from: float, t_to: float) -> dict[str, Any]:
 
 
 def _pitch_doublet(record: FlightRecord) -> dict[str, Any]:
-    ors, out = _drogue(record)
+    ors, fixes, out = _drogue(record)
     tp = record.topic("/tanker/tow_point")
     t_tp = tp.index.to_numpy(float)
     z_tp = tp["z_m"].to_numpy(float)
@@ -171,22 +172,22 @@ def _pitch_doublet(record: FlightRecord) -> dict[str, Any]:
     t_in0, t_in1 = float(t_tp[big[0]]), float(t_tp[big[-1]])
     out.update({"doublet_start_s": _f(t_in0), "doublet_end_s": _f(t_in1),
                 "tow_point_z_amplitude_m": _f(dev.max())})
-    td, zd = _series(ors, "z_m", "valid")
-    fs = M.median_rate_hz(ors.index.to_numpy(float))
-    tg, zg = M.resample_uniform(td, zd, fs, t_in1, None)
+    td, zd = _series(fixes, "z_m")
+    fs = median_rate_hz(ors.index.to_numpy(float))
+    tg, zg = resample_uniform(td, zd, fs, t_in1, None)
     if len(tg) < 16:
         raise _fail(record, "/ors/drogue", "record ends before the drogue response to the doublet")
     # Disturbance level before the doublet (turbulence, ORS noise), band-limited
     # like the response, sets where the log decrement stops trusting peaks.
-    tq, zq = M.resample_uniform(td, zd, fs, None, t_in0)
+    tq, zq = resample_uniform(td, zd, fs, None, t_in0)
     try:
-        f0 = M.dominant_frequency(zg, fs, fmin=3.0 / (tg[-1] - tg[0])).frequency_hz
+        f0 = dominant_frequency(zg, fs, fmin=3.0 / (tg[-1] - tg[0])).frequency_hz
         floor = None
         if len(tq) > 4 * fs / f0:
             sos = signal.butter(2, [f0 / 2, min(2 * f0, 0.45 * fs)], btype="bandpass",
                                 fs=fs, output="sos")
             floor = 3.0 * float(np.std(signal.sosfiltfilt(sos, zq - zq.mean())))
-        est = M.damping_ratio(tg, zg, f_hint=f0, min_amplitude=floor)
+        est = damping_ratio(tg, zg, f_hint=f0, min_amplitude=floor)
     except ValueError as exc:
         raise _fail(record, "/ors/drogue", f"no measurable drogue response ({exc})") from None
     out.update({
@@ -205,16 +206,16 @@ def _pitch_doublet(record: FlightRecord) -> dict[str, Any]:
     t_settle = t_in1 + math.log(max(amp / max(level, 1e-9), 1.0)) / s if s > 0 else t_end
     if not t_end - t_settle >= 2.0:
         t_settle = t_end - 0.25 * (t_end - t_in1)
-    out.update(_steady(ors, t_settle, t_end))
+    out.update(_steady(fixes, t_settle, t_end))
     out.update(_air_data(record))
     return out
 
 
 def _trail(record: FlightRecord, bin_m: float = 1.0) -> dict[str, Any]:
-    ors, out = _drogue(record)
-    out.update(_steady(ors, float(ors.index[0]), float(ors.index[-1])))
+    ors, fixes, out = _drogue(record)
+    out.update(_steady(fixes, float(ors.index[0]), float(ors.index[-1])))
     hose = record.topic("/video/hose")
-    shape = M.mean_shape(hose["x_m"], hose["z_m"], bin_m=bin_m)
+    shape = mean_shape(hose["x_m"], hose["z_m"], bin_m=bin_m)
     out["hose_shape"] = {
         "bin_m": bin_m,
         "x_m": [_f(v) for v in shape["x_m"]],
@@ -225,16 +226,6 @@ def _trail(record: FlightRecord, bin_m: float = 1.0) -> dict[str, Any]:
     out["hose_frames"] = int(hose["t_s"].nunique())
     out.update(_air_data(record))
     return out
-
-
-def _events(record: FlightRecord) -> tuple[float | None, float | None]:
-    ev = record.topic("/probe/events")
-    contact = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "contact"]
-    if not contact:
-        return None, None
-    tc = contact[0]
-    disc = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "disconnect" and t > tc]
-    return tc, (disc[0] if disc else None)
 
 
 def _move_window(t: np.ndarray, y: np.ndarray, t0: float, t_end: float,
@@ -253,13 +244,13 @@ def _smooth(t: np.ndarray, y: np.ndarray, window_s: float = 0.3) -> np.ndarray:
     """Running median over `window_s`: an extreme taken from it is an extreme
     of the motion, not of one noisy sample; 0.3 s is short beside the
     seconds-long pushes and take-ups it is used on."""
-    k = int(round(window_s * M.median_rate_hz(t))) | 1
+    k = int(round(window_s * median_rate_hz(t))) | 1
     return signal.medfilt(y, k) if k > 1 and len(y) > k else y
 
 
 def _engagement(record: FlightRecord) -> dict[str, Any]:
-    ors, out = _drogue(record)
-    tc, td = _events(record)
+    ors, fixes, out = _drogue(record)
+    tc, td = record.contact_events()
     out.update({"contact_time_s": _f(tc), "disconnect_time_s": _f(td)})
     if tc is None:
         return out
@@ -271,7 +262,7 @@ def _engagement(record: FlightRecord) -> dict[str, Any]:
     during = (t_r >= tc) & (t_r <= t_stop)
     out["reel_takeup_max_m"] = _f(base_L - _smooth(t_r, L)[during].min()) if during.any() else None
 
-    t_x, x = _series(ors, "x_m", "valid")
+    t_x, x = _series(fixes, "x_m")
     base_x = float(np.median(x[(t_x >= tc - 2.0) & (t_x < tc)]))
     in_contact = (t_x >= tc) & (t_x <= t_stop)
     out["drogue_pushback_max_m"] = (_f(base_x - _smooth(t_x, x)[in_contact].min())
@@ -282,8 +273,8 @@ def _engagement(record: FlightRecord) -> dict[str, Any]:
     try:
         wx = _move_window(t_x, x, tc, t_stop)
         wl = _move_window(t_r, L, tc, t_stop)
-        t0x, _ = M.hinge_onset(t_x[wx], x[wx])
-        t0l, _ = M.hinge_onset(t_r[wl], L[wl])
+        t0x, _ = hinge_onset(t_x[wx], x[wx])
+        t0l, _ = hinge_onset(t_r[wl], L[wl])
         out.update({"drogue_motion_onset_s": _f(t0x), "reel_motion_onset_s": _f(t0l),
                     "reel_delay_s": _f(t0l - t0x)})
     except ValueError:
@@ -291,11 +282,11 @@ def _engagement(record: FlightRecord) -> dict[str, Any]:
     # Cross-check: lag maximising the correlation of the two velocities over the contact.
     fs = 50.0
     lo, hi = tc - 1.0, t_stop
-    tg, xg = M.resample_uniform(t_x, x, fs, lo, hi)
-    _, lg = M.resample_uniform(t_r, L, fs, lo, hi)
+    tg, xg = resample_uniform(t_x, x, fs, lo, hi)
+    _, lg = resample_uniform(t_r, L, fs, lo, hi)
     n = min(len(xg), len(lg))
     if n > 16:
-        lag, corr = M.cross_correlation_lag(np.gradient(xg[:n]), np.gradient(lg[:n]), fs,
+        lag, corr = cross_correlation_lag(np.gradient(xg[:n]), np.gradient(lg[:n]), fs,
                                             max_lag_s=1.0)
         out["reel_lag_xcorr_s"] = _f(lag)
 
@@ -319,10 +310,10 @@ def _wave_speed(record: FlightRecord, tc: float, t_stop: float) -> dict[str, Any
     xs = np.arange(math.ceil(x_lo) + 1.0, math.floor(x_hi) + 1e-9, 1.0)
     if len(xs) < 4:
         return {"wave_speed_mps": None}
-    frames, Z = M.hose_field(h["t_s"], h["x_m"], h["z_m"], xs)
-    arrivals = M.front_arrival_times(frames, Z, tc, horizon_s=min(5.0, t_stop - tc))
+    frames, Z = hose_field(h["t_s"], h["x_m"], h["z_m"], xs)
+    arrivals = front_arrival_times(frames, Z, tc, horizon_s=min(5.0, t_stop - tc))
     try:
-        ws = M.wave_speed_from_arrivals(xs, arrivals)
+        ws = wave_speed_from_arrivals(xs, arrivals)
     except ValueError:
         return {"wave_speed_mps": None}
     return {"wave_speed_mps": _f(ws.speed_mps), "wave_speed_stderr_mps": _f(ws.stderr_mps),
@@ -343,7 +334,9 @@ def analyze_record(record: FlightRecord) -> dict[str, Any]:
     """Measured quantities of one record (see the module docstring).
 
     Raises LogError naming the topic when the record lacks what its kind
-    needs or the signal does not allow the measurement.
+    needs or the signal does not allow the measurement.  `warnings` (present
+    only when there are any) lists what the reader reported of the record:
+    gaps, a recording read without its summary.
     """
     info = record.info
     out: dict[str, Any] = {"test_id": info.test_id, "test_kind": info.test_kind,
@@ -353,6 +346,10 @@ def analyze_record(record: FlightRecord) -> dict[str, Any]:
     if info.repetition is not None:
         out["repetition"] = info.repetition
     out.update(_ANALYSES[info.test_kind](record))
+    if record.warnings:
+        # What the reader found suspicious but kept (gaps, a cut recording):
+        # reported beside the figures measured from it, never hidden.
+        out["warnings"] = list(record.warnings)
     return out
 
 
@@ -364,7 +361,7 @@ def summarize_by_setpoint(results: list[dict[str, Any]], key: str) -> pd.DataFra
     for hose in sorted({h for h, _, _ in rows}):
         sp = [s for h, s, _ in rows if h == hose]
         val = [v for h, _, v in rows if h == hose]
-        g = M.group_by_setpoint(sp, val)
+        g = group_by_setpoint(sp, val)
         g.insert(0, "hose", hose)
         frames.append(g)
     return pd.concat(frames) if frames else pd.DataFrame()

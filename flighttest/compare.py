@@ -12,9 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from . import metrics as M
+import flighttest.metrics as M
 from .analyze import analyze_record
-from .mcap_io import FlightRecord
+from .record import FlightRecord
 
 
 def _pct(sim, log):

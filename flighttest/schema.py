@@ -33,7 +33,6 @@ NUMERIC_KEYS = frozenset({
     "hose_length_ft", "section_length_m", "tip_mass_kg", "accel_lever_m",
     "tanker_gross_weight_lb",
 })
-INTEGER_KEYS = frozenset({"repetition", "engagement"})
 HOSE_FUEL_VALUES = ("full", "empty")
 
 # Field kinds used by the message validator.
@@ -108,12 +107,78 @@ KT_TO_MPS = 1852.0 / 3600.0
 LB_TO_KG = 0.45359237
 
 
+# ISA sea-level speed of sound (340.294 m/s) in knots: the lowest calibrated
+# airspeed at which Mach 1 is reached, so any CAS at or above it is supersonic.
+SEA_LEVEL_SOUND_KT = 340.294 / KT_TO_MPS
+
+
+@dataclass(frozen=True)
+class Range:
+    """The physical range of a value in the units its key names, and why."""
+
+    lo: float
+    hi: float
+    unit: str
+    why: str
+    lo_open: bool = False   # lo itself excluded ("positive")
+
+    def holds(self, values):
+        """Elementwise: which of `values` (a number or an array) lie in the range."""
+        return ((values > self.lo) if self.lo_open else (values >= self.lo)) & (values <= self.hi)
+
+    def __contains__(self, value: float) -> bool:
+        return bool(self.holds(value))
+
+    def __str__(self) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        return f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}]{unit} ({self.why})"
+
+
+_OAT = Range(-130.0, 140.0, "deg F", "air: coldest recorded -128.6 F, ISA at 65000 ft "
+                                     "-69.7 F, hottest recorded 134 F")
+_CHAMBER = Range(-100.0, 350.0, "deg F", "climatic-chamber range of a bench rig; absolute "
+                                         "zero is -459.67 F")
+_ALTITUDE = Range(-1000.0, 65000.0, "ft", "ISA range of the air-data tables")
+_KCAS = Range(40.0, math.floor(SEA_LEVEL_SOUND_KT * 10.0) / 10.0, "KCAS",
+              "in flight and subsonic: the top is the sea-level speed of sound")
+_HOSE_FT = Range(10.0, 300.0, "ft", "trailed hose of a pod or centre-line unit")
+
+# Every numeric test-card key, checked when the record is read.
+METADATA_RANGES: Mapping[str, Range] = MappingProxyType({
+    "altitude_ft": _ALTITUDE,
+    "airspeed_kcas": _KCAS,
+    "oat_F": _OAT,
+    "temperature_F": _CHAMBER,
+    "closure_rate_kts": Range(0.0, 30.0, "kt", "receiver closing on the drogue; ATP-56 "
+                                               "asks for 2-5 kt", lo_open=True),
+    "hose_length_ft": _HOSE_FT,
+    "section_length_m": Range(0.1, 10.0, "m", "bench-rig hose section"),
+    "tip_mass_kg": Range(0.0, 500.0, "kg", "bench-rig end weight", lo_open=True),
+    "accel_lever_m": Range(0.0, 2.0, "m", "accelerometer offset on the end weight",
+                           lo_open=True),
+    "tanker_gross_weight_lb": Range(5000.0, 1.5e6, "lb", "lightest buddy tanker to "
+                                                         "heavier than any aircraft flown"),
+    "repetition": Range(1, 10000, "", "counts from 1"),
+    "engagement": Range(1, 10000, "", "counts from 1"),
+})
+
+# Message fields with a physical range (the others are signed displacements and
+# accelerations: finite is all the contract says of them one by one).
+FIELD_RANGES: Mapping[tuple[str, str], Range] = MappingProxyType({
+    ("/air_data", "altitude_ft"): _ALTITUDE,
+    ("/air_data", "kcas"): _KCAS,
+    ("/air_data", "ktas"): Range(40.0, 720.0, "kt", "in flight and subsonic: the speed of "
+                                                  "sound in +60 C air is 711 kt"),
+    ("/air_data", "oat_C"): Range(-90.0, 60.0, "deg C", _OAT.why),
+    ("/rig/temperature", "t1_F"): _CHAMBER,
+    ("/rig/temperature", "t2_F"): _CHAMBER,
+    ("/reel/hose_out", "length_m"): Range(0.0, _HOSE_FT.hi * FT_TO_M, "m",
+                                          "hose outside the pod, at most the longest hose"),
+})
+
+
 def fahrenheit_to_kelvin(t_F: float) -> float:
     return (t_F - 32.0) * 5.0 / 9.0 + 273.15
-
-
-def fahrenheit_to_celsius(t_F: float) -> float:
-    return (t_F - 32.0) * 5.0 / 9.0
 
 
 class MetadataError(ValueError):
@@ -197,7 +262,8 @@ class TestInfo:
 
         Raises `MetadataError` naming the key for a missing required key, an
         unknown key, a non-string value, an unknown test kind, an unsupported
-        schema version, or a value that does not parse.
+        schema version, a value that does not parse, or a number outside its
+        physical range (`METADATA_RANGES`, the range named in the message).
         """
         for key, value in raw.items():
             if key not in KNOWN_KEYS:
@@ -219,10 +285,11 @@ class TestInfo:
             raise MetadataError("hose_fuel", f"{raw['hose_fuel']!r} is not one of "
                                 f"{', '.join(HOSE_FUEL_VALUES)}")
         nums = {key: _number(raw, key) for key in NUMERIC_KEYS}
-        for key in ("hose_length_ft", "section_length_m", "tip_mass_kg", "accel_lever_m",
-                    "tanker_gross_weight_lb", "airspeed_kcas"):
-            if nums[key] is not None and nums[key] <= 0.0:
-                raise MetadataError(key, f"{raw[key]!r} must be positive")
+        ints = {key: _integer(raw, key) for key in ("repetition", "engagement")}
+        for key, value in {**nums, **ints}.items():
+            if value is not None and value not in METADATA_RANGES[key]:
+                raise MetadataError(key, f"{raw[key]!r} is outside the physical range "
+                                         f"{METADATA_RANGES[key]}")
         oat_F, temp_F = nums["oat_F"], nums["temperature_F"]
         return cls(
             schema_version=raw["schema_version"],
@@ -235,8 +302,8 @@ class TestInfo:
             reel=raw.get("reel"),
             hose_fuel=raw.get("hose_fuel"),
             notes=raw.get("notes"),
-            repetition=_integer(raw, "repetition"),
-            engagement=_integer(raw, "engagement"),
+            repetition=ints["repetition"],
+            engagement=ints["engagement"],
             altitude_m=_scaled(nums["altitude_ft"], FT_TO_M),
             calibrated_airspeed_mps=_scaled(nums["airspeed_kcas"], KT_TO_MPS),
             oat_K=None if oat_F is None else fahrenheit_to_kelvin(oat_F),

@@ -256,6 +256,18 @@ def _empty_topic(topic: str, kind: str) -> bytes:
     return build(messages=[m for m in _seq(kind) if m[0] != topic], kind=kind, extra_channels=[topic])
 
 
+def _metadata_repeats_key() -> bytes:
+    """A recording without its summary whose `test` map names `hose` twice."""
+    good = build()
+    buf = good[:_first(good, 0x0F)[0]]
+    off, length = _first(buf, 0x0C)
+    pairs = list(BENDING_META.items()) + [("hose", "kc135_boom")]
+    kv = b"".join(struct.pack("<I", len(k)) + k.encode() + struct.pack("<I", len(v)) + v.encode()
+                  for k, v in pairs)
+    body = struct.pack("<I", 4) + b"test" + struct.pack("<I", len(kv)) + kv
+    return buf[:off] + struct.pack("<BQ", 0x0C, len(body)) + body + buf[off + 9 + length:]
+
+
 def _schema_fields() -> bytes:
     data = json.dumps({"type": "object", "properties": {"a_g": {"type": "number"}}}).encode()
     return build(channel_override={"/rig/accel/tip": {"schema_data": data}})
@@ -278,6 +290,7 @@ CASES: dict[str, tuple[Callable[[], bytes], str]] = {
     # metadata
     "no_test_metadata": (lambda: build(metas=[("other", {"a": "b"})]),
                          r"metadata 'test': record has no 'test' metadata"),
+    "metadata_repeats_key": (_metadata_repeats_key, r"container: Metadata record at byte \d+ repeats a key"),
     "two_test_metadata": (lambda: build(metas=[("test", BENDING_META), ("test", BENDING_META)]),
                           r"metadata 'test': record has 2 'test' metadata"),
     "unknown_test_kind": (lambda: _meta(test_kind="ringdown_torsion"),

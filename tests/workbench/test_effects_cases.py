@@ -127,7 +127,7 @@ def test_sensor_lag_shifts_the_tracker_channel():
     assert np.max(np.abs(fixed[inner] - truth[inner])) < 3e-4
 
     import pandas as pd
-    from flighttest.mcap_io import FlightRecord
+    from flighttest import FlightRecord
     from flighttest.schema import TestInfo
     info = TestInfo.__new__(TestInfo)
     ors = pd.DataFrame({"x_m": truth, "valid": True}, index=pd.Index(t, name="t_s"))

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from flighttest.mcap_io import make_record, read_record, write_record
+from flighttest import make_record, read_record, write_record
 from solver.hose import HoseProperties
 from solver.model import Model
 from solver.properties import PropertyLibrary, PropertyTable

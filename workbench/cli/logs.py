@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from flighttest.mcap_io import FlightRecord, LogError, read_record
+from flighttest import FlightRecord, LogError, read_record
 
 
 def _read(path: str, salvage: bool) -> FlightRecord:

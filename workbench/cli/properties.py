@@ -35,7 +35,7 @@ def build(logs_dir: Path | None, out_dir: Path | None, update_committed: bool, h
 
     The committed table is only overwritten with --update-committed: a build
     writes under --out otherwise."""
-    from flighttest.mcap_io import LogError
+    from flighttest import LogError
     from workbench.hardware import load_hardware
     from workbench.properties.build import DEFAULT_LOGS, ELEMENT_COUNTS, build_properties
     from workbench.properties.store import build_target, write_properties

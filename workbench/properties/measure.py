@@ -19,7 +19,7 @@ import numpy as np
 
 from flighttest import metrics as M
 from flighttest.analyze import analyze_record
-from flighttest.mcap_io import FlightRecord, LogError, read_record
+from flighttest import FlightRecord, LogError, read_record
 from workbench.errors import InputError
 from workbench.provenance import file_sha256
 

@@ -13,7 +13,7 @@ from typing import Iterable
 import numpy as np
 import pandas as pd
 
-from flighttest.mcap_io import FlightRecord, make_record
+from flighttest import FlightRecord, make_record
 from solver.integrate import simulate
 from solver.linear import linearize
 from solver.properties import PropertyTable
