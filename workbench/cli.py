@@ -94,7 +94,7 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
     sections = []
     if diagnosis_file.exists():
         import json
-        from workbench.diagnose import report_section
+        from workbench.diagnosis.report import report_section
         try:
             diag = json.loads(diagnosis_file.read_text())
             # the blind selftest's figures, when `diagnose --selftest` wrote them beside it
