@@ -24,7 +24,7 @@ from scipy.optimize import least_squares
 
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import evaluate, gap
-from workbench.diagnosis.setup import Setup, calibrated_params, from_unit, to_unit
+from workbench.diagnosis.setup import BLOCK_S, Setup, calibrated_params, from_unit, to_unit
 
 Part = Union[str, tuple]     # a log path, or (path, segment 0 | 1)
 
@@ -179,3 +179,9 @@ class TimeBlocks:
         (p,) = paths
         for seg in (0, 1):
             yield Fold([(p, seg)], [(p, 1 - seg)], f"{Path(p).stem} segment {'BA'[seg]}")
+
+
+def splitter_for(paths: Sequence[str]):
+    """The folds a family is scored held out on: time blocks of its one log,
+    or leaving one log out at a time."""
+    return TimeBlocks(BLOCK_S) if len(paths) == 1 else LeaveOneLogOut()

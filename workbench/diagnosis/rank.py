@@ -28,10 +28,10 @@ from typing import Callable
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import SimulationFailed, evaluate, gap, observed, record
 from workbench.diagnosis.findings import findings
-from workbench.diagnosis.fit import EffectCalibrator, LeaveOneLogOut, TimeBlocks
+from workbench.diagnosis.fit import EffectCalibrator, splitter_for
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
-from workbench.diagnosis.setup import (BLOCK_S, DEFAULT_ELEMENTS, GAP_DEFINITION, NOISE_FACTOR, PAIR_FROM,
+from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, NOISE_FACTOR, PAIR_FROM,
                                        PAIR_GAIN, PAIR_WHEN_LEFT, PARAM_PENALTY, SCREEN_KEEP, Setup, applicable,
                                        calibrated_params, family_of)
 from workbench.diagnosis.where import where_map
@@ -75,8 +75,7 @@ def _score_candidate(job) -> Candidate:
 
 def _fit_and_score(paths, candidate, setup, n_params, t_start) -> Candidate:
     folds, fitted = [], []
-    splitter = TimeBlocks(BLOCK_S) if len(paths) == 1 else LeaveOneLogOut()
-    for fold in splitter.split(paths):
+    for fold in splitter_for(paths).split(paths):
         cal = EffectCalibrator(candidate, setup).fit(fold.train)
         folds.append({"held_out": fold.label, "params": cal.x_, "gap_train": cal.gap_train_,
                       "gap_heldout": cal.score(fold.test)})
@@ -196,7 +195,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         family=family_of(recs[paths[0]]), kind=kind, logs=[Path(p).stem for p in paths],
         n_elements=setup.n_elements, gap_definition=GAP_DEFINITION[kind], gap_before=gap_before,
         noise_floor=floor, gap_real=not within_noise,
-        held_out_scheme=(TimeBlocks(BLOCK_S) if len(paths) == 1 else LeaveOneLogOut()).scheme,
+        held_out_scheme=splitter_for(paths).scheme,
         screen={e: scores[e] for e in order}, screened_out=order[SCREEN_KEEP:], not_applicable=excluded,
         ranking=ranking, failed=failed,
         remaining_unexplained={"gap_m": remaining,
