@@ -15,6 +15,7 @@ from workbench.diagnosis import evaluate as E
 from workbench.diagnosis import rank as RK
 from workbench.diagnosis import selftest as S
 from workbench.diagnosis.findings import findings
+from workbench.diagnosis.screen import screen_scores
 
 FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
 
@@ -126,3 +127,20 @@ def test_a_diverging_candidate_is_recorded_with_its_reason_and_never_ranked(monk
     assert js["failed"] == [failed.to_json()] and "gap_after_heldout" not in js["failed"][0]
     assert any("drogue_lift could not be scored" in f for f in findings(d))
     assert "drogue_lift" in d.screen, "screened, then failed in its fit"
+
+
+def test_an_effect_whose_screen_probe_diverges_is_reported_and_not_scored(monkeypatch):
+    reason = "at t=0.0000 s no static shape: hose element 3 in compression"
+    real = E._simulate_frozen
+
+    def diverging(path, frozen, setup):
+        if "drogue_lift" in dict(frozen):
+            raise DivergenceError(reason)
+        return real(path, frozen, setup)
+    monkeypatch.setattr(E, "_simulate_frozen", diverging)
+    path = str(FLIGHT / "TR-KDC10-E7.mcap")
+    base = {path: E.evaluate(path, {}, D.Setup())}
+    scores, failed = screen_scores([path], ["drogue_lift", "hose_drag"], D.Setup(), base,
+                                   lambda fn, jobs: [fn(j) for j in jobs])
+    assert set(scores) == {"hose_drag"} and 0.0 < scores["hose_drag"] <= 1.0
+    assert set(failed) == {"drogue_lift"} and reason in failed["drogue_lift"]
