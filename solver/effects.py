@@ -43,12 +43,31 @@ class EffectError(ValueError):
 
 @dataclass(frozen=True)
 class Param:
+    """One effect parameter: unit, default (its value when the effect is on and
+    the parameter not given), physical range lo..hi and doc; and the
+    calibration metadata, written here only:
+
+    * `off`: the value at which the parameter adds nothing to the baseline (a
+      factor's 1, a strength's or a wind's 0); for one that only shapes an
+      effect switched on by another parameter (a core radius, a seed), its
+      default. The diagnosis measures every change from it.
+    * `search`: the range the diagnosis calibrates the parameter over (inside
+      lo..hi); None: the diagnosis holds it at its default.
+    * `probe`: the value the diagnosis's sensitivity screen probes (and its
+      mirror about `off` in the search's scale).
+    * `log`: the search's grid is logarithmic (a factor spanning decades).
+    """
+
     unit: str
     default: float
     lo: float
     hi: float
     doc: str
     integer: bool = False
+    off: Optional[float] = None
+    search: Optional[tuple] = None
+    probe: Optional[float] = None
+    log: bool = False
 
     def check(self, value) -> Optional[str]:
         """A complaint about `value`, or None."""
@@ -98,6 +117,12 @@ class Effect:
     params: dict
     apply: Optional[Callable] = field(default=None, repr=False)
     comparison_only: bool = False
+    not_calibrated: Optional[str] = None   # why no parameter has a search range
+
+    @property
+    def calibrated(self) -> list[str]:
+        """The parameters the diagnosis calibrates, in the registry's order."""
+        return [k for k, p in self.params.items() if p.search is not None]
 
 
 # ---- helpers ---------------------------------------------------------------------------
@@ -310,13 +335,14 @@ _register(Effect(
             "distance; Pope, Turbulent Flows (2000), Sec. 5.2 (axisymmetric wake, spreading rate "
             "0.51); Hoerner, Fluid-Dynamic Drag (1965), Ch. 6 (fuselage drag)."),
     params={
-        "strength": Param("-", 1.0, 0.0, 3.0, "scale on the circulation and the fuselage deficit"),
+        "strength": Param("-", 1.0, 0.0, 3.0, "scale on the circulation and the fuselage deficit",
+                          off=0.0, search=(0.0, 3.0), probe=0.5),
         "vertical_offset_m": Param("m", 0.0, -5.0, 5.0,
-                                   "raises the sheet (dihedral, wake descent: negative)"),
-        "lateral_offset_m": Param("m", 0.0, -10.0, 10.0, "moves the whole wake to starboard"),
-        "core_radius_m": Param("m", 1.0, 0.05, 5.0, "Hallock-Burnham core of every filament"),
+                                   "raises the sheet (dihedral, wake descent: negative)", off=0.0),
+        "lateral_offset_m": Param("m", 0.0, -10.0, 10.0, "moves the whole wake to starboard", off=0.0),
+        "core_radius_m": Param("m", 1.0, 0.05, 5.0, "Hallock-Burnham core of every filament", off=1.0),
         "fuselage_drag_area_m2": Param("m^2", 0.6, 0.0, 10.0,
-                                       "fuselage C_D A (0.6: a business jet such as the G-III)"),
+                                       "fuselage C_D A (0.6: a business jet such as the G-III)", off=0.6),
     },
     apply=_apply_tanker_wake))
 
@@ -324,14 +350,15 @@ _register(Effect(
     "drogue_lift", "In-flight drogue lift",
     model="Multiplies the drogue's wind-tunnel lift coefficient (on top of [model] drogue_lift_scale).",
     source="ARES paper, Sec. IV.B: the flight trail shows far less drogue lift than the wind tunnel.",
-    params={"scale": Param("-", 1.0, 0.0, 3.0, "factor on C_L")},
+    params={"scale": Param("-", 1.0, 0.0, 3.0, "factor on C_L", off=1.0, search=(0.0, 3.0), probe=0.5)},
     apply=_apply_drogue_lift))
 
 _register(Effect(
     "drogue_drag", "In-flight drogue drag",
     model="Multiplies the drogue's wind-tunnel drag coefficient (on top of [model] drogue_drag_scale).",
     source="ARES paper, Eq. 10: drag coefficient and area matched to the drogue's measured drag.",
-    params={"scale": Param("-", 1.0, 0.2, 3.0, "factor on C_D")},
+    params={"scale": Param("-", 1.0, 0.2, 3.0, "factor on C_D", off=1.0, search=(0.3, 3.0), probe=1.5,
+                            log=True)},
     apply=_apply_drogue_drag))
 
 _register(Effect(
@@ -348,11 +375,13 @@ _register(Effect(
             "probability-of-exceedance chart (at 15 000 ft: light 4.6, moderate 8.0, severe "
             "22.1 ft/s; `mil_hdbk_1797_sigma`)."),
     params={
-        "sigma_mps": Param("m/s", 1.4, 0.0, 10.0, "rms of each component (1.4: light at 15 000 ft)"),
-        "length_scale_m": Param("m", 533.4, 50.0, 2000.0, "longitudinal scale L_u (1750 ft)"),
-        "seed": Param("-", 1, 0, 2 ** 31 - 1, "random seed: same seed, same field", integer=True),
+        "sigma_mps": Param("m/s", 1.4, 0.0, 10.0, "rms of each component (1.4: light at 15 000 ft)", off=0.0),
+        "length_scale_m": Param("m", 533.4, 50.0, 2000.0, "longitudinal scale L_u (1750 ft)", off=533.4),
+        "seed": Param("-", 1, 0, 2 ** 31 - 1, "random seed: same seed, same field", integer=True, off=1),
     },
-    apply=_apply_turbulence))
+    apply=_apply_turbulence,
+    not_calibrated=("a random field: its realisation cannot be fitted to a time history; its level shows "
+                    "in the where-map's band above the steady offset against the log's own noise")))
 
 _register(Effect(
     "bow_wave", "Receiver bow wave",
@@ -369,13 +398,13 @@ _register(Effect(
             "half-body: stagnation point sqrt(Q / 4 pi V) ahead of the source, radius "
             "sqrt(Q / pi V)); Katz & Plotkin, Sec. 3.8."),
     params={
-        "strength": Param("-", 1.0, 0.0, 3.0, "scale on the source strength"),
-        "body_radius_m": Param("m", 1.0, 0.2, 3.0, "equivalent radius of the receiver's forebody"),
-        "nose_x_m": Param("m", 1.0, 0.0, 5.0, "nose (stagnation point) aft of the probe tip"),
-        "nose_y_m": Param("m", -0.9, -3.0, 3.0, "nose to starboard of the probe tip"),
-        "nose_z_m": Param("m", -0.5, -3.0, 3.0, "nose above the probe tip"),
-        "closure_rate_mps": Param("m/s", 2.0, 0.1, 10.0, "approach speed (3.89 kts in engagement 7)"),
-        "start_gap_m": Param("m", 10.0, 0.5, 100.0, "probe tip behind the drogue at the start"),
+        "strength": Param("-", 1.0, 0.0, 3.0, "scale on the source strength", off=0.0, search=(0.0, 3.0), probe=1.0),
+        "body_radius_m": Param("m", 1.0, 0.2, 3.0, "equivalent radius of the receiver's forebody", off=1.0),
+        "nose_x_m": Param("m", 1.0, 0.0, 5.0, "nose (stagnation point) aft of the probe tip", off=1.0),
+        "nose_y_m": Param("m", -0.9, -3.0, 3.0, "nose to starboard of the probe tip", off=-0.9),
+        "nose_z_m": Param("m", -0.5, -3.0, 3.0, "nose above the probe tip", off=-0.5),
+        "closure_rate_mps": Param("m/s", 2.0, 0.1, 10.0, "approach speed (3.89 kts in engagement 7)", off=2.0),
+        "start_gap_m": Param("m", 10.0, 0.5, 100.0, "probe tip behind the drogue at the start", off=10.0),
     },
     apply=_apply_bow_wave))
 
@@ -388,8 +417,10 @@ _register(Effect(
            "less than the wind."),
     source="Kinematics of the relative wind (no model uncertainty); ARES paper, Sec. IV.B.2 future work.",
     params={
-        "vertical_mps": Param("m/s", 0.0, -20.0, 20.0, "air moving up through the frame"),
-        "lateral_mps": Param("m/s", 0.0, -20.0, 20.0, "air moving to starboard"),
+        "vertical_mps": Param("m/s", 0.0, -20.0, 20.0, "air moving up through the frame", off=0.0,
+                               search=(-6.0, 6.0), probe=1.0),
+        "lateral_mps": Param("m/s", 0.0, -20.0, 20.0, "air moving to starboard", off=0.0,
+                              search=(-6.0, 6.0), probe=1.0),
     },
     apply=_apply_steady_wind))
 
@@ -401,22 +432,26 @@ _register(Effect(
            "`start_s` and reaches the drogue a hose length / V later."),
     source="MIL-HDBK-1797 (1997) Sec. 4.9.2, discrete gust model (MIL-F-8785C Sec. 3.7.2).",
     params={
-        "vertical_mps": Param("m/s", 3.0, -20.0, 20.0, "gust amplitude V_m, up"),
-        "lateral_mps": Param("m/s", 0.0, -20.0, 20.0, "gust amplitude V_m, to starboard"),
-        "longitudinal_mps": Param("m/s", 0.0, -20.0, 20.0, "gust amplitude V_m, downstream"),
-        "length_m": Param("m", 100.0, 1.0, 2000.0, "ramp length d_m"),
-        "start_s": Param("s", 2.0, 0.0, 1e5, "time the front passes the tow point"),
-        "full_wave": Param("-", 1, 0, 1, "1: up and back down (pulse); 0: ramp and hold", integer=True),
+        "vertical_mps": Param("m/s", 3.0, -20.0, 20.0, "gust amplitude V_m, up", off=0.0),
+        "lateral_mps": Param("m/s", 0.0, -20.0, 20.0, "gust amplitude V_m, to starboard", off=0.0),
+        "longitudinal_mps": Param("m/s", 0.0, -20.0, 20.0, "gust amplitude V_m, downstream", off=0.0),
+        "length_m": Param("m", 100.0, 1.0, 2000.0, "ramp length d_m", off=100.0),
+        "start_s": Param("s", 2.0, 0.0, 1e5, "time the front passes the tow point", off=2.0),
+        "full_wave": Param("-", 1, 0, 1, "1: up and back down (pulse); 0: ramp and hold", integer=True,
+                           off=1),
     },
-    apply=_apply_gust))
+    apply=_apply_gust,
+    not_calibrated=("a transient whose timing and shape are free; a localised residual in one phase of the "
+                    "where-map is its signature")))
 
 _register(Effect(
     "hose_drag", "Hose drag",
     model="Scales the hose's crossflow drag (Eq. 7 regimes) and its skin friction (Eq. 8) separately.",
     source="ARES paper, Eqs. 3-9 (Jorgensen / Hoerner coefficients, not measured on these hoses).",
     params={
-        "crossflow": Param("-", 1.0, 0.25, 4.0, "factor on C_Dn"),
-        "friction": Param("-", 1.0, 0.0, 10.0, "factor on the skin-friction coefficient"),
+        "crossflow": Param("-", 1.0, 0.25, 4.0, "factor on C_Dn", off=1.0, search=(0.25, 4.0), probe=1.6,
+                           log=True),
+        "friction": Param("-", 1.0, 0.0, 10.0, "factor on the skin-friction coefficient", off=1.0),
     },
     apply=_apply_hose_drag))
 
@@ -425,8 +460,8 @@ _register(Effect(
     model="Scales the bending (EI) and axial (EA) stiffness, or the property table's k_b and k_a.",
     source="ARES paper, Sec. III.A: KDC-10 hose properties scaled from the KC-130 hose, never measured.",
     params={
-        "bending": Param("-", 1.0, 0.1, 10.0, "factor on EI"),
-        "axial": Param("-", 1.0, 0.1, 10.0, "factor on EA"),
+        "bending": Param("-", 1.0, 0.1, 10.0, "factor on EI", off=1.0, search=(0.1, 10.0), probe=3.0, log=True),
+        "axial": Param("-", 1.0, 0.1, 10.0, "factor on EA", off=1.0),
     },
     apply=_apply_hose_stiffness))
 
@@ -444,9 +479,9 @@ _register(Effect(
             "Eq. 12 drum model; passivity of b (1 - e^(-s T) / (1 + s tau)): Re >= 0 on the "
             "imaginary axis."),
     params={
-        "dead_time_s": Param("s", 0.2, 0.0, 1.0, "controller dead time"),
-        "lag_s": Param("s", 0.05, 0.0, 2.0, "first-order lag time constant"),
-        "hold_N_s_m": Param("N s/m", 2000.0, 0.0, 1e5, "how firmly the drive holds the drum's speed"),
+        "dead_time_s": Param("s", 0.2, 0.0, 1.0, "controller dead time", off=0.0, search=(0.0, 1.0), probe=0.2),
+        "lag_s": Param("s", 0.05, 0.0, 2.0, "first-order lag time constant", off=0.05),
+        "hold_N_s_m": Param("N s/m", 2000.0, 0.0, 1e5, "how firmly the drive holds the drum's speed", off=0.0),
     },
     apply=_apply_reel_lag))
 
@@ -456,7 +491,8 @@ _register(Effect(
            "their time stamps say (processing latency); the comparison reads the tracker "
            "channel at t + delay_s. Applied to the comparison with flight data, not to the physics."),
     source="ARES paper, Sec. V.B (channels of different systems); flight-log contract SCHEMA.md.",
-    params={"delay_s": Param("s", 0.1, -1.0, 1.0, "tracker latency (negative: tracker early)")},
+    params={"delay_s": Param("s", 0.1, -1.0, 1.0, "tracker latency (negative: tracker early)", off=0.0,
+                              search=(-0.8, 0.8), probe=0.15)},
     comparison_only=True))
 
 # the order effects compose in: properties, then winds, then the bow wave (it aims
@@ -500,12 +536,6 @@ def apply_effects(model: Model, effects: Mapping[str, Mapping], context: EffectC
         if name in eff and not EFFECTS[name].comparison_only:
             model = EFFECTS[name].apply(model, eff[name], context)
     return model
-
-
-def comparison_effects(effects: Mapping[str, Mapping]) -> dict:
-    """The comparison-only effects of a request, validated, with defaults."""
-    eff = validate_effects(effects)
-    return {k: v for k, v in eff.items() if EFFECTS[k].comparison_only}
 
 
 # MIL-F-8785C Fig. 7 / MIL-HDBK-1797: rms turbulence (ft/s) above 2000 ft against altitude (ft)

@@ -13,9 +13,7 @@ from typing import Optional
 import numpy as np
 
 from solver import kernel as K
-# DivergenceError is what `simulate` raises: its callers import it from here
-from solver.chain import (DivergenceError, check_failure, node_capacity, reel_set_point, reel_state,  # noqa: F401
-                          remesh, tables)
+from solver.chain import check_failure, node_capacity, reel_set_point, reel_state, remesh, tables
 from solver.model import Model
 from solver.result import SimulationResult
 from solver.state import State

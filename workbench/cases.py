@@ -41,6 +41,7 @@ import numpy as np
 
 from solver.atmosphere import isa, kcas_to_tas
 from solver.drogue import DrogueProperties
+from solver.effects import EFFECTS
 from solver.hose import HoseProperties
 from solver.model import Model, Trajectory
 from solver.reel import ReelProperties
@@ -184,13 +185,13 @@ class Case:
 
 
 def _check_calibration(p: Path, v: dict) -> None:
-    from workbench.diagnose import CALIBRATE, NOT_CALIBRATED
     where = f"{p}: [[variants]] '{v['id']}'"
     if not (v["calibrate"] and v["calibrate_on"]):
         raise InputError(f"{where} needs both calibrate (effects) and calibrate_on (training logs)")
+    known = [e for e, eff in EFFECTS.items() if eff.calibrated]
     for e in v["calibrate"]:
-        if e not in CALIBRATE:
-            why = NOT_CALIBRATED.get(e, f"known: {', '.join(CALIBRATE)}")
+        if e not in known:
+            why = EFFECTS[e].not_calibrated if e in EFFECTS else f"known: {', '.join(known)}"
             raise InputError(f"{where} calibrate: effect {e!r} cannot be calibrated ({why})")
 
 
@@ -334,7 +335,6 @@ def build_model(case: Case, hardware: Hardware | None = None, record=None,
     for key, value in (variant or {}).items():
         if key in mod and value is not None:
             mod[key] = value
-    st = case["model.structure"]
     from_log = cond["from_log"] or mod["reel"] == "from_log" or case["tow_motion"]["kind"] == "from_log"
     if from_log and record is None:
         raise InputError(f"{case.path}: takes its condition or motions from a log, but none was given "

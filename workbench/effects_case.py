@@ -138,11 +138,3 @@ def apply_case_effects(case, model: Model, hardware, record, true_airspeed: floa
         raise InputError(f"{case.path}: [effects.{exc.effect}] {exc.problem}") from None
     except ValueError as exc:
         raise InputError(f"{case.path}: [effects] {exc}") from None
-
-
-def effects_summary(case) -> list[str]:
-    """'name: key=value, ...' lines for what a run applied (provenance)."""
-    out = []
-    for name, vals in (case.tables.get("effects") or {}).items():
-        out.append(f"{name}: " + ", ".join(f"{k}={v:g}" for k, v in vals.items()))
-    return out

@@ -8,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.integrate import DivergenceError, simulate
+from solver.chain import DivergenceError
+from solver.integrate import simulate
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
 from workbench.cases import DEFAULT_DURATION_S, Case, build_model
-from workbench.errors import InputError
 
 
 @dataclass

@@ -12,7 +12,6 @@ model, and are gated on the logs they were not fitted to.
 """
 from __future__ import annotations
 
-import math
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -25,11 +24,13 @@ from scipy.optimize import minimize_scalar
 
 from flighttest import FlightRecord, LogError, analyze_record, read_record
 from flighttest.compare import compare_records
-from solver.integrate import DivergenceError, simulate
+from solver.chain import DivergenceError
+from solver.integrate import simulate
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
 from workbench import log_inputs
 from workbench.cases import Case, build_model, case_log_paths, load_case
+from workbench.diagnosis import EffectCalibrator, Setup, SimulationFailed
 from workbench.effects_case import with_effects
 from workbench.effects_compare import apply_comparison_effects
 from workbench.errors import EXIT_BAD_INPUT, InputError, exit_code_for
@@ -250,12 +251,11 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
                     tr = [r for r in records.values() if r.info.test_id in v["tune_drogue_lift_on"]]
                     tuned[v["id"]] = tune_drogue_lift(case, v, tr)
                 if v.get("calibrate"):
-                    from workbench.diagnose import calibrate
                     tr = [p for p, r in records.items() if r.info.test_id in v["calibrate_on"]]
-                    calibrated[v["id"]] = calibrate(case, _overrides(v, {}), v["calibrate"], tr)
+                    calibrated[v["id"]] = calibrate_variant(case, v, tr)
                     v = dict(v, effects=calibrated[v["id"]]["effects"])
                 variants.append(v)
-        except (LogError, InputError, StaticSolveError, DivergenceError) as exc:
+        except (LogError, InputError, StaticSolveError, DivergenceError, SimulationFailed) as exc:
             outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc), error_code=exit_code_for(exc))
             continue
         outcomes[case.id] = CaseOutcome(case, [], [], tuned=tuned, calibrated=calibrated)
@@ -279,6 +279,17 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             oc.gates = evaluate_gates(oc.case["gates"], default_variant, oc.runs)
             oc.findings = evaluate_findings(oc.case["findings"], default_variant, oc.runs)
     return [outcomes[c.id] for c in cases]
+
+
+def calibrate_variant(case: Case, v: dict, paths: list[str]) -> dict:
+    """A variant's `calibrate` effects fitted on its training logs (`paths`)
+    with the case's own model and the variant's overrides: the diagnosis's
+    calibrator on all components of those logs. {"effects": {name: {param:
+    value}}, "stderr": {...}, "gap_before", "gap_train" (m), "on": test ids}."""
+    setup = Setup(None, str(case.path), tuple(sorted(_overrides(v, {}).items())))
+    cal = EffectCalibrator(v["calibrate"], setup).fit(paths)
+    return {"effects": cal.params_, "stderr": cal.stderr_, "gap_train": cal.gap_train_,
+            "gap_before": cal.gap_before_, "on": [Path(p).stem for p in paths]}
 
 
 def _collect(outcomes, job, get, bar):

@@ -57,6 +57,24 @@ def test_every_effect_is_documented_with_units_ranges_and_defaults_inside_them()
         assert e.comparison_only == (e.apply is None), name
 
 
+def test_every_effect_parameter_carries_its_calibration_metadata_inside_its_physical_range():
+    # the registry is the only place the diagnosis and the validation cases read
+    # search ranges, probes and off values from: each must be complete and coherent
+    for name, e in EFFECTS.items():
+        assert bool(e.calibrated) != bool(e.not_calibrated), \
+            f"{name}: calibrated parameters or a reason why none, not both"
+        for key, p in e.params.items():
+            assert p.off is not None and p.check(p.off) is None, (name, key, p.off)
+            if p.search is None:
+                assert p.probe is None and not p.log, (name, key)
+                continue
+            s0, s1 = p.search
+            assert p.lo <= s0 < s1 <= p.hi, (name, key, p.search)
+            assert s0 <= p.off <= s1, (name, key, "off value outside the search range")
+            assert s0 <= p.probe <= s1 and p.probe != p.off, (name, key, p.probe)
+            assert not p.log or s0 > 0.0, (name, key, "a logarithmic search needs a positive range")
+
+
 @pytest.mark.parametrize("request_, pattern", [
     ({"tanker_wak": {}}, r"effect tanker_wak: unknown effect"),
     ({"tanker_wake": {"strenght": 1.0}}, r"effect tanker_wake.strenght: unknown parameter"),

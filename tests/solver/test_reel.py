@@ -4,7 +4,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from solver.hose import HoseProperties
-from solver.integrate import DivergenceError, simulate
+from solver.chain import DivergenceError
+from solver.integrate import simulate
 from solver.model import Model
 from solver.reel import ReelProperties
 from solver.statics import solve_static

@@ -7,7 +7,8 @@ import pytest
 
 from solver.drogue import DrogueProperties
 from solver.hose import HoseProperties
-from solver.integrate import DivergenceError, simulate
+from solver.chain import DivergenceError
+from solver.integrate import simulate
 from solver.model import EndConstraint, Model, Trajectory
 from solver.reel import ReelProperties
 from solver.statics import solve_static

@@ -7,7 +7,8 @@ from numpy.testing import assert_allclose
 
 from solver.drogue import DrogueProperties
 from solver.hose import HoseProperties
-from solver.integrate import DivergenceError, simulate
+from solver.chain import DivergenceError
+from solver.integrate import simulate
 from solver.model import EndConstraint, Model, Trajectory
 from solver.statics import solve_static
 from solver.wind import freestream

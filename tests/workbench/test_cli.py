@@ -16,7 +16,7 @@ from click.testing import CliRunner
 
 from flighttest import read_record
 from flighttest.compare import compare_records
-from solver.integrate import DivergenceError
+from solver.chain import DivergenceError
 from solver.statics import StaticSolveError
 from tests.workbench.test_validate import CASE, Z_EXPECTED
 from workbench.cases import load_case

@@ -1,13 +1,23 @@
 """The diagnosis proven on generated logs whose effect it is not told (a small
 version of `workbench diagnose --selftest`), the where-map and JSON contract of
-a real-log-like run, and the Dask scheduler path."""
+a real-log-like run, the Dask scheduler path, the folds, and a failed candidate
+kept out of the ranking."""
 import json
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 import pytest
 
-from workbench import diagnose as D
-from workbench import selftest as S
+from solver.effects import EFFECTS
+from solver.chain import DivergenceError
+from workbench import diagnosis as D
+from workbench.diagnosis import evaluate as E
+from workbench.diagnosis import rank as RK
+from workbench.diagnosis import selftest as S
+from workbench.diagnosis.findings import findings
+from workbench.diagnosis.screen import screen_scores
+
+FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
 
 # two kinds, two effects each, chosen before the diagnosis runs; engagements are
 # covered by the full `--selftest` (one engagement diagnosis alone takes ~1 min)
@@ -45,7 +55,9 @@ def test_diagnosis_json_contract_and_dask_scheduler(tmp_path):
     path, truth = S.generate("trail", "drogue_drag", 21, tmp_path)
     with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2,
                                   dashboard_address=None) as cluster:
-        out = D.diagnose([str(path)], tmp_path / "out", scheduler=cluster.scheduler_address)
+        out = D.diagnose([str(path)], scheduler=cluster.scheduler_address)
+    assert not (tmp_path / "out").exists(), "compute wrote files"
+    D.write_diagnosis(out, tmp_path / "out")
     js = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
     assert {"logs", "gap", "ranking"} <= set(js)
     top = js["ranking"][0]
@@ -59,4 +71,76 @@ def test_diagnosis_json_contract_and_dask_scheduler(tmp_path):
     assert fam["gap_after_best"][path.stem]["gap_m"] < 0.3 * w["gap_m"]
     assert any(f.startswith(f"{path.stem}: with drogue_drag") for f in js["findings"])
     assert (tmp_path / "out" / "diagnosis.html").read_text().count("<table>") >= 1
-    assert out["scheduler"] == cluster.scheduler_address
+    assert out.scheduler == cluster.scheduler_address
+    # the typed result: one parameter shape whatever the number of effects
+    assert out.ranking[0].params == {"drogue_drag": top["params"]}
+    frame = out.to_pandas()
+    assert frame["effect"].iloc[0] == "drogue_drag" and "drogue_drag.scale" in frame.columns
+
+
+def test_folds_split_a_family_as_the_diagnosis_scores_it():
+    loo = list(D.LeaveOneLogOut().split(["a/L1.mcap", "a/L2.mcap", "a/L3.mcap"]))
+    assert [(f.train, f.test, f.label) for f in loo] == [
+        (["a/L2.mcap", "a/L3.mcap"], ["a/L1.mcap"], "L1"), (["a/L1.mcap", "a/L3.mcap"], ["a/L2.mcap"], "L2"),
+        (["a/L1.mcap", "a/L2.mcap"], ["a/L3.mcap"], "L3")]
+    blocks = list(D.TimeBlocks(2.0).split(["a/L1.mcap"]))
+    assert [(f.train, f.test, f.label) for f in blocks] == [
+        ([("a/L1.mcap", 0)], [("a/L1.mcap", 1)], "L1 segment B"),
+        ([("a/L1.mcap", 1)], [("a/L1.mcap", 0)], "L1 segment A")]
+
+
+def test_selftest_draws_lie_inside_the_registry_search_ranges():
+    import numpy as np
+    rng = np.random.default_rng(3)
+    for kind, effects in S.KIND_EFFECTS.items():
+        for e in effects:
+            assert EFFECTS[e].calibrated, (kind, e)
+            for _ in range(50):
+                for k, v in S.DRAWS[e](rng).items():
+                    p = EFFECTS[e].params[k]
+                    lo, hi = p.search or (p.lo, p.hi)
+                    assert lo <= v <= hi, (e, k, v)
+
+
+def test_a_diverging_candidate_is_recorded_with_its_reason_and_never_ranked(monkeypatch):
+    # drogue_lift explains a trail well (it ranks among the best on every real
+    # trail); forced to diverge, it must leave the ranking, not enter it with a
+    # stand-in gap, and its reason (time and element) must be reported
+    reason = "at t=3.2100 s hose element 7 is stretched beyond its breaking strain"
+    real = E._simulate_frozen
+
+    def diverging(path, frozen, setup):
+        # above 2.5 only: the screen's probes (0.5, 1.5) pass, the fit's grid does not
+        if dict(dict(frozen).get("drogue_lift", ())).get("scale", 0.0) > 2.5:
+            raise DivergenceError(reason)
+        return real(path, frozen, setup)
+    monkeypatch.setattr(E, "_simulate_frozen", diverging)
+    monkeypatch.setattr(RK, "SCREEN_KEEP", 4)      # the check needs only a few candidates: keep it fast
+    path = str(FLIGHT / "TR-KDC10-E7.mcap")
+    d = RK.diagnose_family([path], D.Setup(), mapper=lambda fn, jobs: [fn(j) for j in jobs])
+    assert all("drogue_lift" not in c.effects for c in d.ranking)
+    (failed,) = [c for c in d.failed if c.effect == "drogue_lift"]
+    assert not failed.success and reason in failed.message and "DivergenceError" in failed.message
+    assert not d.success and reason in d.message
+    assert d.ranking[0].success and d.ranking[0].gap_after_heldout < d.gap_before
+    js = d.to_json()
+    assert js["failed"] == [failed.to_json()] and "gap_after_heldout" not in js["failed"][0]
+    assert any("drogue_lift could not be scored" in f for f in findings(d))
+    assert "drogue_lift" in d.screen, "screened, then failed in its fit"
+
+
+def test_an_effect_whose_screen_probe_diverges_is_reported_and_not_scored(monkeypatch):
+    reason = "at t=0.0000 s no static shape: hose element 3 in compression"
+    real = E._simulate_frozen
+
+    def diverging(path, frozen, setup):
+        if "drogue_lift" in dict(frozen):
+            raise DivergenceError(reason)
+        return real(path, frozen, setup)
+    monkeypatch.setattr(E, "_simulate_frozen", diverging)
+    path = str(FLIGHT / "TR-KDC10-E7.mcap")
+    base = {path: E.evaluate(path, {}, D.Setup())}
+    scores, failed = screen_scores([path], ["drogue_lift", "hose_drag"], D.Setup(), base,
+                                   lambda fn, jobs: [fn(j) for j in jobs])
+    assert set(scores) == {"hose_drag"} and 0.0 < scores["hose_drag"] <= 1.0
+    assert set(failed) == {"drogue_lift"} and reason in failed["drogue_lift"]

@@ -1,5 +1,5 @@
 """`workbench diagnose`: the sim-to-real gap of flight logs, the effect that
-explains it and how far it shrinks (`workbench.diagnose`); `--selftest`
+explains it and how far it shrinks (`workbench.diagnosis`); `--selftest`
 proves the method on generated logs whose effect it is not told."""
 from __future__ import annotations
 
@@ -26,31 +26,37 @@ from workbench.errors import InputError
               help="Run the candidate fits on a Dask distributed cluster (e.g. tcp://host:8786).")
 def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, scheduler) -> None:
     """Where the simulation departs from LOGS, which unmodelled effect explains it, how far the gap shrinks."""
-    from workbench import diagnose as D
+    from workbench import diagnosis as D
     t0 = time.perf_counter()
     try:
         if selftest:
-            from workbench.selftest import run_selftest
+            from workbench.diagnosis.selftest import run_selftest
             out_dir.mkdir(parents=True, exist_ok=True)
             r = run_selftest(n=n_logs, seed=seed, n_elements=n_elements, workers=workers, scheduler=scheduler,
                              out_dir=out_dir, progress=click.echo)
+            path = D.write_selftest(r, out_dir)
             click.echo(f"selftest: {r['n']} logs, top-1 {100 * r['top1']:.0f} %, held-out shrink median "
                        f"{100 * r['median_shrink']:.0f} % (>= 70 % in {100 * r['share_shrink_ge_70pct']:.0f} % of "
-                       f"logs), {r['wall_s']:.0f} s; {out_dir / 'selftest.json'}")
+                       f"logs), {r['wall_s']:.0f} s; {path}")
             for k, v in r["by_kind"].items():
                 click.echo(f"  {k}: n {v['n']}, top-1 {100 * v['top1']:.0f} %, median shrink "
                            f"{100 * v['median_shrink']:.0f} %")
             return
         if not logs:
             raise InputError("give one or more LOG.mcap files, or --selftest")
-        out = D.diagnose([str(p) for p in logs], out_dir, n_elements or D.DEFAULT_ELEMENTS, workers, scheduler,
+        out = D.diagnose([str(p) for p in logs], n_elements or D.DEFAULT_ELEMENTS, workers, scheduler,
                          progress=click.echo)
     except InputError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(2)
-    for name, d in out["families"].items():
-        top = d["ranking"][0]
-        click.echo(f"{name}: gap {d['gap_before']:.3f} m (floor {d['noise_floor']:.3f}); best {top['effect']} "
-                   f"{json.dumps(top['params'], default=float)} -> held out {top['gap_after_heldout']:.3f} m "
-                   f"({d['wall_s']:.0f} s)")
-    click.echo(f"wrote {out_dir / 'diagnosis.json'} ({time.perf_counter() - t0:.0f} s)")
+    except D.SimulationFailed as exc:
+        # the baseline itself does not simulate: nothing to diagnose against
+        click.echo(f"error: baseline simulation failed: {exc}", err=True)
+        sys.exit(3)
+    files = D.write_diagnosis(out, out_dir)
+    for name, d in out.families.items():
+        top = d.ranking[0]
+        click.echo(f"{name}: gap {d.gap_before:.3f} m (floor {d.noise_floor:.3f}); best {top.effect} "
+                   f"{json.dumps(top.params, default=float)} -> held out {top.gap_after_heldout:.3f} m "
+                   f"({d.wall_s:.0f} s)")
+    click.echo(f"wrote {files['json']} ({time.perf_counter() - t0:.0f} s)")

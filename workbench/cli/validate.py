@@ -30,7 +30,7 @@ def case_paths(targets: tuple[str, ...]) -> list[Path]:
 
 
 def _diagnosis_section(diagnosis_file: Path) -> dict:
-    from workbench.diagnose import report_section
+    from workbench.diagnosis.report import report_section
     try:
         diag = json.loads(diagnosis_file.read_text())
         # the blind selftest's figures, when `diagnose --selftest` wrote them beside it

@@ -1,0 +1,32 @@
+"""`workbench diagnose`: where the simulation departs from flight logs, which
+unmodelled effect explains it, and how far the gap shrinks once it is added.
+
+Modules by concern, data flowing down the list:
+
+* `setup`: the method's constants, the baseline case from a log (`Setup`),
+  which effects apply to a log; calibration metadata comes from the effect
+  registry (`solver.effects.Param`).
+* `evaluate`: what is measured from a log (`Observed`), its residual against a
+  simulation (`Residual`, the gap), the simulation of a log under effects.
+* `where`: the residual's where-map (channel, station, phase, band).
+* `fit`: `EffectCalibrator` (fit / score) and the folds (`LeaveOneLogOut`,
+  `TimeBlocks`).
+* `screen`: each effect's sensitivity directions and the share of the
+  residual they span.
+* `rank`: one family's diagnosis and the `diagnose` of many logs.
+* `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
+* `findings`: the diagnosis in words.
+* `report`: the reporters (diagnosis.json / .html, selftest.json, the section
+  of validate's report); compute never writes files.
+* `selftest`: the method proven on generated logs whose effect it is not told.
+"""
+from workbench.errors import SimulationFailed
+from workbench.diagnosis.fit import EffectCalibrator, LeaveOneLogOut, TimeBlocks
+from workbench.diagnosis.rank import diagnose, diagnose_family
+from workbench.diagnosis.report import report_section, write_diagnosis, write_selftest
+from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
+from workbench.diagnosis.setup import DEFAULT_ELEMENTS, Setup
+
+__all__ = ["Candidate", "DEFAULT_ELEMENTS", "Diagnosis", "EffectCalibrator", "FamilyDiagnosis", "LeaveOneLogOut",
+           "Setup", "SimulationFailed", "TimeBlocks", "diagnose", "diagnose_family", "report_section",
+           "write_diagnosis", "write_selftest"]

@@ -1,0 +1,62 @@
+"""The diagnosis in words: plain sentences from a family's numbers, what was
+found, how sure, what is left."""
+from __future__ import annotations
+
+import numpy as np
+
+from solver.effects import EFFECTS
+from workbench.diagnosis.result import FamilyDiagnosis
+
+
+def _bound_note(effect: str, name: str, v: float) -> str:
+    """' (at the search bound ...)' when a calibrated value ended on a bound:
+    the logs want it there or beyond, and its error is one-sided."""
+    p = EFFECTS[effect].params.get(name)
+    if p is None or p.search is None:
+        return ""
+    lo, hi = p.search
+    if abs(v - lo) <= 1e-6 * (hi - lo) or abs(v - hi) <= 1e-6 * (hi - lo):
+        return f" (at the search bound {lo:g}..{hi:g}: the logs want it there or beyond)"
+    return ""
+
+
+def findings(d: FamilyDiagnosis) -> list[str]:
+    """Plain sentences from a family's numbers: what was found, how sure, what is left."""
+    top = d.ranking[0]
+    out = []
+    head = (f"{d.family} ({', '.join(d.logs)}): baseline gap {d.gap_before:.3f} m against a noise floor "
+            f"of {d.noise_floor:.3f} m.")
+    if top.effect == "none":
+        out.append(head + f" No effect needed: {top.why or ''}.")
+        return out
+    p, se = top.params, top.param_stderr
+    ptxt = ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}{_bound_note(e, k, v)}"
+                     for e, dd in p.items() for k, v in dd.items())
+    out.append(head + f" Best explanation: {top.effect} ({ptxt}); held-out gap {top.gap_before:.3f} -> "
+               f"{top.gap_after_heldout:.3f} m ({100 * top.shrink_heldout:.0f} % smaller), "
+               f"{d.remaining_unexplained['above_noise_m']:.3f} m of it above the noise floor.")
+    for log, w in (d.gap_after_best or {}).items():
+        real = sorted((p for p in w["by_phase"] if p["real"]), key=lambda p: -p["gap_m"])
+        chans = sorted(((k, v) for k, v in w["by_channel"].items() if v["real"]), key=lambda kv: -kv[1]["gap_m"])
+        if not real and not chans:
+            out.append(f"{log}: with {top.effect} the residual is within the noise in every phase and channel.")
+            continue
+        out.append(f"{log}: with {top.effect} the gap is {w['gap_m']:.3f} m; what is left lies in "
+                   + ", ".join(f"{p['phase']} {p['gap_m']:.3f} m" for p in real[:3])
+                   + (" and in " + ", ".join(f"{k} {v['gap_m']:.3f} m" for k, v in chans[:2]) if chans else "")
+                   + ".")
+    folds = top.folds or []
+    if len(d.logs) > 1 and folds:
+        per = ", ".join(f"{f['held_out']} {f['gap_heldout']:.3f} m" for f in folds)
+        out.append(f"Held out one at a time, each log's gap with {top.effect} fitted on the others: {per}.")
+        singles = [c for c in d.ranking if c.effect != "none" and len(c.effects) == 1]
+        for c in singles[:3]:
+            vals = [f["params"] for f in c.folds]
+            if vals and len(vals[0]) == 1:
+                v = np.array([x[0] for x in vals])
+                out.append(f"{c.effect} fitted without each log in turn: "
+                           + ", ".join(f"without {f['held_out']} {x:.3g}" for f, x in zip(c.folds, v))
+                           + f" (held-out gap {c.gap_after_heldout:.3f} m).")
+    for c in d.failed:
+        out.append(f"{c.effect} could not be scored and is not ranked: {c.message}.")
+    return out

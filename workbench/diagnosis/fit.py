@@ -1,0 +1,187 @@
+"""Calibration of a candidate (one or more library effects) on flight logs,
+in the scikit-learn estimator shape, and the folds it is scored held out on.
+
+`EffectCalibrator(effects, setup).fit(parts)` fits the candidate's
+parameters (those with a search range in the effect registry) on `parts`: a
+grid in the unit cube of the search ranges (10 points for one parameter,
+5 x 5 for two, 4 per axis beyond, plus the off point), then bounded least
+squares from the best grid point, and for two or more parameters from the
+runner-up too. `score(parts)` is the held-out gap at the fitted parameters.
+A part is a log path, or (path, segment) for one of its alternate time
+blocks; `LeaveOneLogOut` and `TimeBlocks` split a family into folds of parts.
+
+A simulation that fails anywhere in a fit raises `SimulationFailed`: the
+candidate failed, and its reason says where.
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Iterator, Sequence, Union
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from solver.effects import EFFECTS
+from workbench.diagnosis.evaluate import evaluate, gap
+from workbench.diagnosis.setup import BLOCK_S, Setup, calibrated_params, from_unit, to_unit
+
+Part = Union[str, tuple]     # a log path, or (path, segment 0 | 1)
+
+
+def _part(p: Part) -> tuple[str, int | None]:
+    return (str(p[0]), p[1]) if isinstance(p, tuple) else (str(p), None)
+
+
+def effects_at(candidate: tuple, x) -> dict:
+    """{effect: {param: value}} of `candidate` at the parameter vector `x`."""
+    out: dict = {}
+    for (eff, name, _), v in zip(calibrated_params(candidate), x):
+        out.setdefault(eff, {})[name] = float(v)
+    return out
+
+
+def _ordered(effects) -> tuple:
+    return tuple(sorted(effects, key=list(EFFECTS).index))
+
+
+class EffectCalibrator:
+    """Fits `effects`' calibrated parameters to logs simulated with `setup`.
+
+    Fitted attributes: `params_` and `stderr_` ({effect: {param: value}}; the
+    standard errors from the Gauss-Newton covariance in the unit cube, mapped
+    by the local slope of the search's scale), `x_` and `stderr_x_` (the same
+    as vectors), `gap_train_` (the gap of all training components together),
+    `gap_before_` (the baseline's: the RMS of the training parts' gaps)."""
+
+    def __init__(self, effects: Sequence[str], setup: Setup = Setup()):
+        self.effects = effects
+        self.setup = setup
+
+    @property
+    def candidate(self) -> tuple:
+        return _ordered(self.effects)
+
+    def _residual(self, parts, effects: dict) -> np.ndarray:
+        out = []
+        for part in parts:
+            path, seg = _part(part)
+            R = evaluate(path, effects, self.setup)
+            out.append(R.r if seg is None else R.r[R.seg == seg])
+        return np.concatenate(out)
+
+    def fit(self, parts: Sequence[Part]) -> "EffectCalibrator":
+        candidate = self.candidate
+        ps = [p for _, _, p in calibrated_params(candidate)]
+        n = len(ps)
+
+        def res(u):
+            return self._residual(parts, effects_at(candidate, [from_unit(p, ui) for p, ui in zip(ps, u)]))
+        # a dense first grid: the engagement's objective is rough in its parameters
+        # (slack-hose dynamics), so the local polish only refines what the grid found
+        grid_1d = np.linspace(0.0, 1.0, {1: 10, 2: 5}.get(n, 4))
+        if n == 1:
+            starts = [np.array([g]) for g in grid_1d]
+        else:
+            starts = [np.array(u) for u in np.stack(np.meshgrid(*[grid_1d] * n), -1).reshape(-1, n)]
+        starts.append(np.array([to_unit(p, p.off) for p in ps]))
+        scored = sorted((gap(res(u)), i) for i, u in enumerate(starts))
+        # refine from the best grid point, and for two or more parameters from the
+        # runner-up too (a valley across the grid); starts are nudged off the bounds,
+        # where a projected gradient can vanish at a corner that is not a minimum
+        best_gap, u, sol = scored[0][0], starts[scored[0][1]], None
+        for _, i in scored[:1 if n == 1 else 2]:
+            s = least_squares(res, np.clip(starts[i], 0.02, 0.98), bounds=(np.zeros(n), np.ones(n)),
+                              diff_step=0.02, max_nfev=8 * n + 4, x_scale=np.full(n, 0.1))
+            if sol is None or gap(s.fun) < gap(sol.fun):
+                sol = s
+        if gap(sol.fun) <= best_gap:
+            u = sol.x
+        r = res(u)
+        x = [from_unit(p, ui) for p, ui in zip(ps, u)]
+        # standard errors: Gauss-Newton covariance in the unit cube, mapped to the
+        # parameters by the local slope of the (possibly logarithmic) map; the
+        # Jacobian by steps into the cube from the final point (the solver's own is
+        # zeroed on a parameter that ends at its bound)
+        J = np.empty((len(r), n))
+        for i in range(n):
+            step = 0.02 if u[i] + 0.02 <= 1.0 else -0.02
+            du = np.array(u, float)
+            du[i] += step
+            J[:, i] = (res(du) - r) / step
+        dof = max(len(r) - n, 1)
+        s2 = float(r @ r) / dof
+        try:
+            cov = np.linalg.pinv(J.T @ J) * s2
+            su = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        except np.linalg.LinAlgError:
+            su = np.full(n, np.nan)
+        se = []
+        for p, ui, s in zip(ps, u, su):
+            d = 1e-4
+            slope = (from_unit(p, min(ui + d, 1)) - from_unit(p, max(ui - d, 0))) / (min(ui + d, 1) - max(ui - d, 0))
+            se.append(abs(slope) * s)
+        self.x_, self.stderr_x_, self.gap_train_ = x, se, gap(r)
+        self.gap_before_ = gap([gap(self._residual([p], {})) for p in parts])
+        self.params_, self.stderr_ = effects_at(candidate, x), effects_at(candidate, se)
+        return self
+
+    def set_fitted(self, x, stderr_x) -> "EffectCalibrator":
+        """Take parameters fitted elsewhere (the mean of a one-log family's two
+        folds) as this calibrator's own, to score them."""
+        self.x_, self.stderr_x_ = list(x), list(stderr_x)
+        self.params_ = effects_at(self.candidate, self.x_)
+        self.stderr_ = effects_at(self.candidate, self.stderr_x_)
+        return self
+
+    def part_gaps(self, parts: Sequence[Part]) -> list[float]:
+        """The gap of each part at the fitted parameters."""
+        return [gap(self._residual([p], self.params_)) for p in parts]
+
+    def score(self, parts: Sequence[Part]) -> float:
+        """The held-out gap on `parts` at the fitted parameters (a family's:
+        the RMS of the parts' gaps)."""
+        return gap(self.part_gaps(parts))
+
+
+@dataclasses.dataclass(frozen=True)
+class Fold:
+    """Train on `train`, score on `test`; `label` names what was held out."""
+
+    train: list
+    test: list
+    label: str
+
+
+class LeaveOneLogOut:
+    """A family of several logs: train on all but one, score on the one left out."""
+
+    scheme = "leave one log out"
+
+    def split(self, paths: Sequence[str]) -> Iterator[Fold]:
+        for p in paths:
+            yield Fold([q for q in paths if q != p], [p], Path(p).stem)
+
+
+@dataclasses.dataclass(frozen=True)
+class TimeBlocks:
+    """One log: fit on its A blocks (alternate `block_s` s blocks) and score on
+    the B blocks, and the other way round."""
+
+    block_s: float
+
+    @property
+    def scheme(self) -> str:
+        return (f"two folds over alternate {self.block_s:.0f} s blocks of the one log (fit on A, score on B; "
+                f"fit on B, score on A)")
+
+    def split(self, paths: Sequence[str]) -> Iterator[Fold]:
+        (p,) = paths
+        for seg in (0, 1):
+            yield Fold([(p, seg)], [(p, 1 - seg)], f"{Path(p).stem} segment {'BA'[seg]}")
+
+
+def splitter_for(paths: Sequence[str]):
+    """The folds a family is scored held out on: time blocks of its one log,
+    or leaving one log out at a time."""
+    return TimeBlocks(BLOCK_S) if len(paths) == 1 else LeaveOneLogOut()

@@ -1,0 +1,162 @@
+"""The diagnosis's typed results: a ranked `Candidate` per effect or pair, a
+`FamilyDiagnosis` per family of logs and the `Diagnosis` of them all, each
+with `to_json()` (the diagnosis.json layout) and the ranking `.to_pandas()`."""
+from __future__ import annotations
+
+import dataclasses
+from typing import Optional
+
+import pandas as pd
+
+
+@dataclasses.dataclass
+class Candidate:
+    """One explanation (an effect, a pair of effects, or "none") and its gaps, m.
+
+    `params` and `param_stderr` are {effect: {param: value}} whatever the
+    number of effects. A failed candidate (`success` False) has `message`
+    saying which simulation failed and why, and no gaps: it is never ranked."""
+
+    effect: str
+    effects: list
+    n_params: int
+    params: dict = dataclasses.field(default_factory=dict)
+    param_stderr: dict = dataclasses.field(default_factory=dict)
+    gap_before: float = float("nan")
+    gap_before_train: Optional[float] = None
+    gap_after_train: float = float("nan")
+    gap_after_heldout: float = float("nan")
+    gap_after_all_fit_per_log: Optional[dict] = None
+    shrink_heldout: Optional[float] = None
+    score: float = float("nan")
+    folds: Optional[list] = None          # {"held_out", "params" (vector), "gap_train", "gap_heldout"}
+    screen_share: Optional[dict] = None
+    why_not_first: Optional[str] = None
+    why: Optional[str] = None             # "none" first: why no effect is needed
+    wall_s: Optional[float] = None
+    success: bool = True
+    message: str = ""
+
+    def to_json(self) -> dict:
+        """The diagnosis.json entry: a single effect's parameters without the
+        effect's level ({param: value}), as the file has always had them."""
+        if not self.success:
+            return {"effect": self.effect, "effects": self.effects, "n_params": self.n_params,
+                    "success": False, "message": self.message}
+        one = len(self.effects) == 1
+        out = {"effect": self.effect, "effects": self.effects, "n_params": self.n_params,
+               "params": self.params[self.effects[0]] if one else self.params,
+               "param_stderr": self.param_stderr[self.effects[0]] if one else self.param_stderr,
+               "gap_before": self.gap_before, "gap_after_train": self.gap_after_train,
+               "gap_after_heldout": self.gap_after_heldout, "shrink_heldout": self.shrink_heldout,
+               "score": self.score}
+        if self.effect != "none":
+            out.update({"gap_before_train": self.gap_before_train,
+                        "gap_after_all_fit_per_log": self.gap_after_all_fit_per_log, "folds": self.folds,
+                        "screen_share": self.screen_share, "wall_s": self.wall_s})
+        for k in ("why_not_first", "why"):
+            if getattr(self, k) is not None:
+                out[k] = getattr(self, k)
+        return out
+
+
+def _ranking_frame(ranking: list, **extra) -> pd.DataFrame:
+    rows = []
+    for i, c in enumerate(ranking):
+        row = {**extra, "rank": i + 1, "effect": c.effect, "n_params": c.n_params,
+               "gap_before_m": c.gap_before, "gap_after_train_m": c.gap_after_train,
+               "gap_after_heldout_m": c.gap_after_heldout, "shrink_heldout": c.shrink_heldout,
+               "score_m": c.score}
+        row.update({f"{e}.{k}": v for e, d in c.params.items() for k, v in d.items()})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+@dataclasses.dataclass
+class FamilyDiagnosis:
+    """The where-map, screen, ranking and gaps (m) of one family of logs."""
+
+    family: str
+    kind: str
+    logs: list
+    n_elements: Optional[int]
+    gap_definition: str
+    gap_before: float
+    noise_floor: float
+    gap_real: bool
+    held_out_scheme: str
+    screen: dict
+    screened_out: list
+    not_applicable: dict
+    ranking: list                 # Candidate, best first
+    failed: list                  # Candidate with success False: excluded from the ranking
+    remaining_unexplained: dict
+    gap: dict                     # where-map per log, baseline
+    gap_after_best: dict          # where-map per log with the best explanation
+    wall_s: float
+
+    @property
+    def success(self) -> bool:
+        """Whether every candidate screened in could be simulated."""
+        return not self.failed
+
+    @property
+    def message(self) -> str:
+        return "; ".join(f"{c.effect} failed: {c.message}" for c in self.failed)
+
+    def to_pandas(self) -> pd.DataFrame:
+        """The ranking, one row per candidate, parameters as 'effect.param' columns."""
+        return _ranking_frame(self.ranking, family=self.family)
+
+    def to_json(self) -> dict:
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["ranking"] = [c.to_json() for c in self.ranking]
+        out["failed"] = [c.to_json() for c in self.failed]
+        return out
+
+
+@dataclasses.dataclass
+class Diagnosis:
+    """Every family's diagnosis among the logs given, with the findings in words."""
+
+    logs: list
+    families: dict                # name -> FamilyDiagnosis
+    findings: list
+    scheduler: str
+    gap_definition: dict
+    noise_factor: float
+    param_penalty: float
+    pair_gain: float
+
+    @property
+    def ranking(self) -> list:
+        """One family: its ranking; several: each family's best, family first."""
+        if len(self.families) == 1:
+            return next(iter(self.families.values())).ranking
+        return [c for d in self.families.values() for c in d.ranking[:1]]
+
+    @property
+    def success(self) -> bool:
+        return all(d.success for d in self.families.values())
+
+    @property
+    def message(self) -> str:
+        return "; ".join(f"{k}: {d.message}" for k, d in self.families.items() if d.message)
+
+    def to_pandas(self) -> pd.DataFrame:
+        """Every family's full ranking, one row per candidate."""
+        frames = [d.to_pandas() for d in self.families.values()]
+        return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+    def to_json(self) -> dict:
+        """The diagnosis.json content (keys as the file has always had them)."""
+        fams = {k: d.to_json() for k, d in self.families.items()}
+        gap = {log: w for d in self.families.values() for log, w in d.gap.items()}
+        if len(fams) == 1:
+            ranking = next(iter(fams.values()))["ranking"]
+        else:
+            ranking = [{"family": k, **d["ranking"][0]} for k, d in fams.items()]
+        return {"logs": self.logs, "families": fams, "gap": gap, "ranking": ranking,
+                "gap_definition": self.gap_definition, "noise_factor": self.noise_factor,
+                "param_penalty": self.param_penalty, "pair_gain": self.pair_gain,
+                "scheduler": self.scheduler, "findings": self.findings}

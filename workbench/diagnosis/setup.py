@@ -1,0 +1,127 @@
+"""What a diagnosis simulates a log with, and the constants of the method.
+
+A log alone is enough: its metadata names the hardware (`hardware.toml` ids)
+and the flight condition; a template per test kind (`cases/templates/`) adds
+the paper's baseline model, so the baseline is what `validate` would run.
+Which effects are calibrated, over which range, from which off value and with
+which probe: the effect registry's `Param` (`solver.effects`), nowhere else.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+from flighttest import FlightRecord
+from solver.effects import EFFECTS, Param
+from workbench.cases import Case, load_case
+from workbench.errors import InputError
+
+TEMPLATES = Path(__file__).resolve().parent.parent.parent / "cases" / "templates"
+DIAG_KINDS = ("pitch_doublet", "trail", "engagement")
+
+BIN_S = 0.25            # drogue channel averaging (a quarter of the shortest period seen)
+VIDEO_WINDOW_S = 1.0    # video normal errors averaged per window and station
+STATION_M = 3.0
+BLOCK_S = 2.0           # alternating train / held-out time blocks within one log
+NOISE_FACTOR = 2.0      # a gap under twice its noise floor is not a real gap
+PARAM_PENALTY = 0.05    # each parameter must buy 5 % of held-out gap
+SCREEN_KEEP = 5         # effects calibrated in full after the screen
+PAIR_FROM = 3           # pairs among the best three singles
+PAIR_WHEN_LEFT = 0.2    # fit a pair when the best single leaves this share of the gap
+PAIR_GAIN = 0.25        # a pair ranks above its members only if it shrinks their best held-out gap by this share
+DEFAULT_ELEMENTS = 20   # 20 elements move the static drogue by ~1 mm against 40, at half the cost
+
+GAP_DEFINITION = {
+    "pitch_doublet": "RMS over 0.25 s bins (2 s before the doublet to the end) of the tracker's drogue x, y, z "
+                     "minus the simulation's, m",
+    "trail": "RMS of the signed normal distances of the video hose's mean shape (1 m bins) from the simulated "
+             "static hose, together with the median drogue x, y, z residuals, m",
+    "engagement": "RMS of the video hose points' normal distances from the simulated hose, averaged per 1 s and "
+                  "3 m station, together with the drogue x, y, z residuals in 0.25 s bins, m",
+}
+
+
+def calibrated_params(candidate: tuple) -> list[tuple[str, str, Param]]:
+    """(effect, parameter, its registry entry) for every parameter `candidate`'s
+    effects calibrate, in the candidate's order then the registry's."""
+    return [(eff, name, EFFECTS[eff].params[name]) for eff in candidate for name in EFFECTS[eff].calibrated]
+
+
+def to_unit(p: Param, v: float) -> float:
+    """`v` in the unit interval of `p`'s search range (linear or logarithmic)."""
+    lo, hi = p.search
+    return (math.log(v / lo) / math.log(hi / lo)) if p.log else (v - lo) / (hi - lo)
+
+
+def from_unit(p: Param, u: float) -> float:
+    """The value of `p` at `u` in its search range's unit interval (clipped to it)."""
+    lo, hi = p.search
+    u = min(max(u, 0.0), 1.0)
+    return lo * (hi / lo) ** u if p.log else lo + u * (hi - lo)
+
+
+def applicable(effect: str, kind: str, case: Case, rec: FlightRecord) -> str | None:
+    """Why `effect` cannot change this log's observables, or None when it can."""
+    if EFFECTS[effect].not_calibrated:
+        return EFFECTS[effect].not_calibrated
+    if effect == "bow_wave" and kind != "engagement":
+        return "no receiver near the drogue"
+    if effect == "bow_wave" and "/receiver/probe" not in rec.topics:
+        return "the log has no probe track"
+    if effect == "reel_lag" and case["model"]["reel"] != "drum":
+        return "the reel is not simulated (the baseline prescribes the logged payout or locks it)"
+    if effect == "sensor_lag" and kind == "trail":
+        return "a steady trail does not move: a time shift of the tracker changes nothing"
+    if effect == "tanker_wake" and not (case["hardware"].get("tanker") and rec.info.raw.get("tanker_gross_weight_lb")):
+        return "needs the tanker and its gross weight on the test card"
+    if effect == "hose_stiffness" and kind == "trail":
+        return "a steady trail of a long hose hangs on tension, not bending"
+    return None
+
+
+def baseline_case(rec: FlightRecord, n_elements: int | None = None) -> Case:
+    """The kind's template with the log's hardware ids."""
+    kind = rec.info.test_kind
+    if kind not in DIAG_KINDS:
+        raise InputError(f"{rec.path}: diagnose handles {', '.join(DIAG_KINDS)} logs, not {kind!r}")
+    case = load_case(TEMPLATES / f"{kind}.toml")
+    raw = rec.info.raw
+    if not raw.get("hose"):
+        raise InputError(f"{rec.path}: the test card names no hose")
+    tables = dict(case.tables)
+    tables["hardware"] = {k: raw.get(k) or None for k in ("hose", "drogue", "reel", "tanker")}
+    case = dataclasses.replace(case, id=f"{case.id}:{rec.info.test_id}", path=str(rec.path), tables=tables)
+    return _with_elements(case, n_elements)
+
+
+def _with_elements(case: Case, n_elements: int | None) -> Case:
+    """The case with `n_elements` hose elements (None: its own)."""
+    if not n_elements:
+        return case
+    tables = dict(case.tables)
+    tables["model"] = dict(tables["model"], n_elements=int(n_elements))
+    return dataclasses.replace(case, tables=tables)
+
+
+@dataclasses.dataclass(frozen=True)
+class Setup:
+    """What a diagnosis simulates a log with: the kind's template with the
+    log's hardware ids (`case_path` None), or one case file with a variant's
+    model overrides (a validation variant calibrated on its training logs);
+    `n_elements` None keeps the case's own."""
+
+    n_elements: int | None = DEFAULT_ELEMENTS
+    case_path: str | None = None
+    overrides: tuple = ()
+
+    def case_for(self, rec: FlightRecord) -> Case:
+        if self.case_path is None:
+            return baseline_case(rec, self.n_elements)
+        return _with_elements(load_case(self.case_path), self.n_elements)
+
+
+def family_of(rec: FlightRecord) -> str:
+    """Logs of one kind on one hose, drogue and tanker form a family."""
+    r = rec.info.raw
+    return f"{rec.info.test_kind}/{r.get('tanker') or '-'}/{r.get('hose')}"
