@@ -142,3 +142,30 @@ def write_outputs(outcome: RunOutcome, out_dir: Path) -> list[Path]:
     import matplotlib.pyplot as plt
     plt.close(fig)
     return paths
+
+
+def case_for_log(record: FlightRecord) -> Case:
+    """The case a log belongs to: the case in cases/ that lists it among its
+    logs (the same file, or one of the same name), else the diagnosis's
+    baseline template for the log's kind with its hardware."""
+    from workbench.cases import case_log_paths, load_case
+    from workbench.diagnosis.setup import TEMPLATES, baseline_case
+    log = Path(record.path)
+    for path in sorted(TEMPLATES.parent.glob("*.toml")):
+        case = load_case(path)
+        if any(p.resolve() == log.resolve() or p.name == log.name for p in case_log_paths(case)):
+            return case
+    return baseline_case(record)
+
+
+def write_comparison_mcap(outcome: RunOutcome, path: Path) -> Path:
+    """The log and its simulation on the log's time base in one MCAP: the log's
+    topics and scene under /log, the run's (`write_mcap`'s) under /sim, so
+    that Foxglove scrubs both together."""
+    from flighttest.writer import write_overlay
+    from workbench.simlog import result_scene, result_to_record
+    if outcome.record is None:
+        raise InputError(f"{outcome.case.path}: a comparison needs the log the case ran against")
+    sim = result_to_record(outcome.result, outcome.record, note=f"workbench compare, case {outcome.case.id}")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    return write_overlay(path, {"/log": (outcome.record, None), "/sim": (sim, result_scene(outcome.result))})
