@@ -12,10 +12,13 @@ import click
 
 from workbench.errors import InputError
 
+# a diagnosis writes here, not over the committed reference in reports/diagnose that `validate` reads
+DEFAULT_OUT = Path("reports/diagnose-out")
+
 
 @click.command()
 @click.argument("logs", nargs=-1, type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/diagnose"),
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=DEFAULT_OUT,
               show_default=True, help="Folder for diagnosis.json and diagnosis.html.")
 @click.option("--selftest", is_flag=True, help="Generate logs with a withheld effect and diagnose them blind.")
 @click.option("--n", "n_logs", type=int, default=42, show_default=True, help="Generated logs in the selftest.")
