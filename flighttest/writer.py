@@ -211,8 +211,9 @@ def _x_to(d: np.ndarray) -> dict:
 def _entity(ns: int, frame: str, ident: str, note: str, **primitives) -> dict:
     return {"timestamp": _time(ns), "frame_id": frame, "id": ident, "lifetime": {"sec": 0, "nsec": 0},
             "frame_locked": True, "metadata": [{"key": "note", "value": note}] if note else [],
-            "lines": primitives.get("lines", []), "spheres": primitives.get("spheres", []),
-            "arrows": primitives.get("arrows", [])}
+            # every primitive list of foxglove.SceneEntity, empty where unused, for strict readers
+            **{kind: primitives.get(kind, []) for kind in ("arrows", "cubes", "spheres", "cylinders", "lines",
+                                                           "triangles", "texts", "models")}}
 
 
 def _sphere(p, size: float, color) -> dict:
