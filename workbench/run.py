@@ -2,17 +2,16 @@
 from __future__ import annotations
 
 import json
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from solver.chain import DivergenceError
-from solver.integrate import simulate
 from solver.result import SimulationResult
-from solver.statics import StaticSolveError, solve_static
-from workbench.cases import DEFAULT_DURATION_S, Case, build_model
+from solver.statics import StaticSolveError
+from workbench.cases import Case
+from workbench.simulate import simulate_case
 
 
 @dataclass
@@ -43,20 +42,14 @@ class RunOutcome:
 
 
 def run_case(case: Case, duration_s: float | None = None) -> RunOutcome:
-    model = build_model(case)
-    dur = float(duration_s if duration_s is not None else case["run"]["duration_s"] or DEFAULT_DURATION_S)
     try:
-        t0 = time.perf_counter()
-        s0 = solve_static(model)
-        static_ms = (time.perf_counter() - t0) * 1e3
-        t0 = time.perf_counter()
-        res = simulate(model, dur, s0, record_dt=float(case["run"]["record_dt_s"]))
-        wall = time.perf_counter() - t0
+        sim = simulate_case(case, duration=duration_s)
     except (StaticSolveError, DivergenceError) as exc:
         # still a numerical failure (exit 3), now naming the case
         raise type(exc)(f"{case.path}: {exc}") from None
+    res = sim.result
     res.provenance = {"case": case.path, "case_id": case.id, "structure": case["model.structure"]["source"]}
-    return RunOutcome(case, res, wall, static_ms)
+    return RunOutcome(case, res, sim.run_s, sim.static_s * 1e3)
 
 
 def write_outputs(outcome: RunOutcome, out_dir: Path) -> list[Path]:
