@@ -5,12 +5,14 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.params import POSITIVE
+
 
 @click.command()
 @click.argument("case_file", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
               show_default=True, help="Folder for the run's outputs.")
-@click.option("--duration", type=float, default=None, help="Simulated seconds (default: the case's).")
+@click.option("--duration", type=POSITIVE, default=None, help="Simulated seconds (default: the case's).")
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:key=value,...]",
               help="Turn on an unmodelled effect, over the case's [effects.NAME] (repeatable).")
 def run(case_file: Path, out_dir: Path, duration: float | None, effects: tuple[str, ...]) -> None:
