@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from pathlib import Path
 
 import click
@@ -123,6 +124,14 @@ def test_imports_flow_one_way():
                 bad.append((name, d))
     assert bad == []
     assert GRAPH["solver.units"] == set()
+
+
+def test_architecture_doc_lists_every_module_and_no_other():
+    """docs/architecture.md's package map names each module once, as its path."""
+    doc = (ROOT / "docs" / "architecture.md").read_text()
+    listed = set(re.findall(r"^- `((?:solver|flighttest|workbench)/[\w/]+\.py)`", doc, re.M))
+    actual = {str(p.relative_to(ROOT)) for p in MODULES.values()}
+    assert sorted(actual - listed) == [] and sorted(listed - actual) == []
 
 
 # ---- every numeric CLI option refuses out-of-range values (exit 2) ----------------------
