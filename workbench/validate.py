@@ -25,6 +25,7 @@ from flighttest.compare import compare_records
 from solver.chain import DivergenceError
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError
+from workbench import log_inputs
 from workbench.cases import Case, case_log_paths, load_case
 from workbench.diagnosis import EffectCalibrator, Setup, SimulationFailed
 from workbench.effects_compare import apply_comparison_effects
@@ -88,8 +89,7 @@ def _whip_metrics(res: SimulationResult, rec: FlightRecord) -> dict:
     """Hose-whip measures of an engagement run (the paper's reel study and its
     future work): peak slack, wave amplitude near the tow point, peak tension,
     peak probe load."""
-    t_on, t_off = rec.contact_events()
-    t_off = t_off if t_off is not None else np.inf
+    t_on, t_off = log_inputs.contact_window(rec)
     eng = (res.t >= t_on) & (res.t <= min(t_off, res.t[-1]))
     pre = res.t < t_on
     out: dict[str, Any] = {}
@@ -165,7 +165,7 @@ def steady_drogue_z(rec: FlightRecord) -> float:
     """The log's steady drogue height: the analysed steady value, or for an
     engagement the median of the valid fixes before contact."""
     if rec.info.test_kind == "engagement":
-        t_on, _ = rec.contact_events()
+        t_on, _ = log_inputs.contact_window(rec)
         fixes = rec.tracker_fixes()
         return float(np.median(fixes["z_m"].to_numpy(float)[fixes.index < t_on]))
     return float(analyze_record(rec)["drogue_steady_z_m"])
