@@ -17,6 +17,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable
 
 from workbench.config import defaults
+from workbench.errors import InputError
 
 
 class Mapper:
@@ -34,17 +35,11 @@ class Mapper:
         self.scheduler = scheduler
         self._client = None
 
-    @property
-    def where(self) -> str:
-        """Where the jobs run, in words (reports say it)."""
-        return f"Dask cluster {self.scheduler}" if self.scheduler else "local processes"
-
     def __call__(self, fn: Callable, jobs: Iterable, progress: Callable | None = None) -> list:
         jobs = list(jobs)
         if self.scheduler:
             if self._client is None:
-                from distributed import Client
-                self._client = Client(self.scheduler)
+                self._client = _connect(self.scheduler)
             return _drain(self._client.gather(self._client.map(fn, jobs, pure=False)), progress)
         if self.workers <= 1 or len(jobs) <= 1:
             return _drain(map(fn, jobs), progress)
@@ -61,6 +56,19 @@ class Mapper:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _connect(address: str):
+    """A Dask client of the scheduler at `address`; one that cannot be reached
+    is a bad --scheduler (exit 2), not a defect."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError(f"--scheduler {address}: needs the 'distributed' package (pip install distributed)") from None
+    try:
+        return Client(address)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"--scheduler {address}: cannot reach the Dask scheduler ({exc})") from None
 
 
 def _drain(results: Iterable, progress: Callable | None) -> list:

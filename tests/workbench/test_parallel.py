@@ -45,8 +45,8 @@ def cluster():
 
 def test_mapper_on_a_dask_cluster(cluster):
     with Mapper(scheduler=cluster.scheduler_address) as m:
-        assert m.where == f"Dask cluster {cluster.scheduler_address}"
         assert m(_square, [3, 1, 2]) == [9, 1, 4]
+    assert "square" in cluster.scheduler.task_prefixes   # it ran there (dask drops the underscore)
 
 
 def test_validate_runs_a_campaign_on_a_dask_cluster(cluster, tmp_path):
@@ -88,3 +88,15 @@ def test_simulate_case_static_only_and_model_left_as_built():
     assert run.model.end is None and run.options.n_elements == run.model.n_elements
     # the run spans what was asked, to the sample step
     assert_allclose(run.result.t[-1] - run.result.t[0], 0.2, atol=float(case["run"]["record_dt_s"]))
+
+
+def test_an_unreachable_scheduler_is_bad_input(tmp_path):
+    pytest.importorskip("distributed")
+    import dask
+    case = tmp_path / "case.toml"
+    case.write_text(TRAIL)
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        res = CliRunner().invoke(cli, ["validate", str(case), "--out", str(tmp_path / "out"), "--no-progress",
+                                       "--scheduler", "tcp://127.0.0.1:1"])
+    assert res.exit_code == 2, res.output
+    assert "--scheduler tcp://127.0.0.1:1: cannot reach the Dask scheduler" in res.output
