@@ -86,9 +86,8 @@ from solver.integrate import simulate  # noqa: E402
 from solver.model import EndConstraint, Model, Trajectory  # noqa: E402
 from solver.reel import ReelProperties  # noqa: E402
 from solver.statics import solve_static  # noqa: E402
+from solver.units import FT, G0  # noqa: E402
 from solver.wind import freestream, uniform  # noqa: E402
-
-FT = 0.3048
 
 
 @dataclass(frozen=True)
@@ -216,7 +215,7 @@ ID   LineType   AttachA  AttachB  UnstrLen  NumSegs  LineOutputs
 ---------------------- OPTIONS ---------------------------------------------------------
 {dt!r}     dtM
 {scheme}   tScheme
-9.80665    g
+{G0!r}    g
 {c.rho!r}    rho
 {5 * c.depth!r}    WtrDpth
 1          Currents

@@ -30,13 +30,14 @@ from solver.hose import HoseProperties
 from solver.integrate import simulate
 from solver.model import Model, Trajectory
 from solver.statics import solve_static
+from solver.units import FT, LB
 from solver.wind import uniform
 
 
 def doublet_model(n_elements: int, duration: float) -> Model:
-    st = isa(15000 * 0.3048)
+    st = isa(15000 * FT)
     u = kcas_to_tas(254.0, 15000.0)
-    hose = HoseProperties(length=75 * 0.3048, outer_diameter=0.0635, inner_diameter=0.0445,
+    hose = HoseProperties(length=75 * FT, outer_diameter=0.0635, inner_diameter=0.0445,
                           dry_mass_per_length=2.2, EI=50.0, EA=2.0e6, bending_damping=2.0,
                           axial_damping=300.0)
     drogue = DrogueProperties(mass=27.0, diameter=0.68, cd=0.82, cl=0.18, cp_aft_of_hinge=0.40)
@@ -49,9 +50,9 @@ def doublet_model(n_elements: int, duration: float) -> Model:
 
 def with_all_effects(m: Model, duration: float) -> Model:
     from solver.effects import EffectContext, TankerGeometry, apply_effects
-    ctx = EffectContext(true_airspeed=m.wind.mean_speed, air_density=m.air_density, altitude_m=15000 * 0.3048,
+    ctx = EffectContext(true_airspeed=m.wind.mean_speed, air_density=m.air_density, altitude_m=15000 * FT,
                         duration_s=duration, tanker=TankerGeometry(50.41, 4.0, 1.3, 16.5),
-                        gross_weight_kg=410000 * 0.45359237)
+                        gross_weight_kg=410000 * LB)
     effects = {"tanker_wake": {}, "turbulence": {}, "bow_wave": {"start_gap_m": 40.0}, "steady_wind":
                {"vertical_mps": 1.0}, "gust": {}, "drogue_lift": {"scale": 0.5}, "drogue_drag": {},
                "hose_drag": {}, "hose_stiffness": {}}

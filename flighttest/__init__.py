@@ -1,6 +1,7 @@
 """Flight and bench test records: contract, reader/writer, measurements.
 
-The package never imports the solver: records are measured on their own
+The package takes nothing from the solver but its unit factors
+(`solver.units`, a leaf module of constants): records are measured on their own
 (`analyze_record`) and compared with simulations through the same reader
 (`write_record` stores a simulation run in the contract).
 

@@ -16,13 +16,14 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
+from solver.units import FT, KT
+
 from .metrics import (
     axial_rocking, cross_correlation_lag, damping_ratio, dominant_frequency,
     free_decay_segment, front_arrival_times, group_by_setpoint, hinge_onset, hose_field,
     mean_shape, median_rate_hz, resample_uniform, wave_speed_from_arrivals,
 )
 from .record import FlightRecord, LogError
-from .schema import KT_TO_MPS, FT_TO_M
 
 
 def _f(x: Any) -> float | None:
@@ -131,9 +132,9 @@ def _air_data(record: FlightRecord) -> dict[str, Any]:
     if df is None or len(df) == 0:
         return {}
     return {
-        "altitude_m": _f(df["altitude_ft"].mean() * FT_TO_M),
-        "calibrated_airspeed_mps": _f(df["kcas"].mean() * KT_TO_MPS),
-        "true_airspeed_mps": _f(df["ktas"].mean() * KT_TO_MPS),
+        "altitude_m": _f(df["altitude_ft"].mean() * FT),
+        "calibrated_airspeed_mps": _f(df["kcas"].mean() * KT),
+        "true_airspeed_mps": _f(df["ktas"].mean() * KT),
         "oat_C": _f(df["oat_C"].mean()),
     }
 

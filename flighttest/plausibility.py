@@ -21,8 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from solver.units import FT
+
 from .record import TRACKER_TOPIC, FlightRecord, LogError
-from .schema import FT_TO_M, METADATA_RANGES, TOPICS
+from .schema import METADATA_RANGES, TOPICS
 
 # Hose stretch under drag is a few per cent (at most 0.4 % in this program's
 # logs); 20 % leaves room for tracker bias, never for a mis-scaled coordinate.
@@ -42,7 +44,7 @@ def gap_limit_s(rate_hz: float) -> float:
 def _reach_m(record: FlightRecord) -> tuple[float, str]:
     if record.info.hose_length_m is not None:
         return REACH_MARGIN * record.info.hose_length_m, "hose_length_ft"
-    return REACH_MARGIN * METADATA_RANGES["hose_length_ft"].hi * FT_TO_M, "the longest hose"
+    return REACH_MARGIN * METADATA_RANGES["hose_length_ft"].hi * FT, "the longest hose"
 
 
 def _check_tracker(record: FlightRecord, label) -> None:

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Mapping
 
+from solver.units import FT, KT, LB, degF_to_K
+
 SCHEMA_VERSION = "1"
 METADATA_NAME = "test"
 SCHEMA_ENCODING = "jsonschema"
@@ -101,15 +103,9 @@ REQUIRED_TOPICS: Mapping[str, tuple[str, ...]] = MappingProxyType({
                              "/receiver/probe"),
 })
 
-# Exact conversion factors (international foot, knot, pound).
-FT_TO_M = 0.3048
-KT_TO_MPS = 1852.0 / 3600.0
-LB_TO_KG = 0.45359237
-
-
 # ISA sea-level speed of sound (340.294 m/s) in knots: the lowest calibrated
 # airspeed at which Mach 1 is reached, so any CAS at or above it is supersonic.
-SEA_LEVEL_SOUND_KT = 340.294 / KT_TO_MPS
+SEA_LEVEL_SOUND_KT = 340.294 / KT
 
 
 @dataclass(frozen=True)
@@ -172,13 +168,9 @@ FIELD_RANGES: Mapping[tuple[str, str], Range] = MappingProxyType({
     ("/air_data", "oat_C"): Range(-90.0, 60.0, "deg C", _OAT.why),
     ("/rig/temperature", "t1_F"): _CHAMBER,
     ("/rig/temperature", "t2_F"): _CHAMBER,
-    ("/reel/hose_out", "length_m"): Range(0.0, _HOSE_FT.hi * FT_TO_M, "m",
+    ("/reel/hose_out", "length_m"): Range(0.0, _HOSE_FT.hi * FT, "m",
                                           "hose outside the pod, at most the longest hose"),
 })
-
-
-def fahrenheit_to_kelvin(t_F: float) -> float:
-    return (t_F - 32.0) * 5.0 / 9.0 + 273.15
 
 
 class MetadataError(ValueError):
@@ -304,16 +296,16 @@ class TestInfo:
             notes=raw.get("notes"),
             repetition=ints["repetition"],
             engagement=ints["engagement"],
-            altitude_m=_scaled(nums["altitude_ft"], FT_TO_M),
-            calibrated_airspeed_mps=_scaled(nums["airspeed_kcas"], KT_TO_MPS),
-            oat_K=None if oat_F is None else fahrenheit_to_kelvin(oat_F),
-            temperature_K=None if temp_F is None else fahrenheit_to_kelvin(temp_F),
-            closure_rate_mps=_scaled(nums["closure_rate_kts"], KT_TO_MPS),
-            hose_length_m=_scaled(nums["hose_length_ft"], FT_TO_M),
+            altitude_m=_scaled(nums["altitude_ft"], FT),
+            calibrated_airspeed_mps=_scaled(nums["airspeed_kcas"], KT),
+            oat_K=None if oat_F is None else degF_to_K(oat_F),
+            temperature_K=None if temp_F is None else degF_to_K(temp_F),
+            closure_rate_mps=_scaled(nums["closure_rate_kts"], KT),
+            hose_length_m=_scaled(nums["hose_length_ft"], FT),
             section_length_m=nums["section_length_m"],
             tip_mass_kg=nums["tip_mass_kg"],
             accel_lever_m=nums["accel_lever_m"],
-            tanker_gross_weight_kg=_scaled(nums["tanker_gross_weight_lb"], LB_TO_KG),
+            tanker_gross_weight_kg=_scaled(nums["tanker_gross_weight_lb"], LB),
             raw=MappingProxyType(dict(raw)),
         )
 

@@ -45,15 +45,15 @@ from solver.effects import EFFECTS
 from solver.hose import HoseProperties
 from solver.model import Model, Trajectory
 from solver.reel import ReelProperties
+from solver.units import FT, K_to_degF, degF_to_K
 from solver.wind import freestream
+from workbench.config import defaults
 from workbench.errors import InputError
 from workbench.gates import METRICS
 from workbench.hardware import Hardware, load_hardware
 
 KINDS = ("ringdown_bending", "ringdown_axial", "pitch_doublet", "trail", "engagement")
 ARRAY_TABLES = ("variants", "gates", "findings")
-DEFAULT_DURATION_S = 10.0   # a run with neither [run] duration_s nor a log to span
-FT = 0.3048
 
 
 @dataclass(frozen=True)
@@ -353,7 +353,7 @@ def build_model(case: Case, hardware: Hardware | None = None, record=None,
         alt_m = cond["altitude_ft"] * FT
         d_temp = 0.0
         if cond["oat_F"] is not None:
-            d_temp = (cond["oat_F"] - 32.0) * 5.0 / 9.0 + 273.15 - isa(alt_m).temperature
+            d_temp = degF_to_K(cond["oat_F"]) - isa(alt_m).temperature
         atm = isa(alt_m, delta_temperature=d_temp)
         density, nu = atm.density, atm.kinematic_viscosity
         tas = kcas_to_tas(cond["airspeed_kcas"], cond["altitude_ft"], d_temp) if cond["airspeed_kcas"] > 0 else 0.0
@@ -404,7 +404,7 @@ def hose_temperature_F(case: Case, record=None) -> float | None:
     if st["temperature_F"] is not None:
         return float(st["temperature_F"])
     if record is not None and case["condition"]["from_log"] and record.info.oat_K is not None:
-        return (record.info.oat_K - 273.15) * 9.0 / 5.0 + 32.0
+        return K_to_degF(record.info.oat_K)
     return case["condition"]["oat_F"]
 
 
@@ -444,7 +444,7 @@ def _tow_motion(case: Case) -> Trajectory:
     tm = case["tow_motion"]
     if tm["kind"] == "none":
         return Trajectory.fixed()
-    dur = float(case["run"]["duration_s"] or DEFAULT_DURATION_S)
+    dur = float(case["run"]["duration_s"] or defaults["simulate.duration_s"])
     t = np.linspace(0.0, max(dur, tm["start_s"] + tm["period_s"]), int(max(dur, 1.0) * 200) + 1)
     phase = (t - tm["start_s"]) / tm["period_s"]
     z = np.where((phase > 0) & (phase < 1), tm["amplitude_m"] * np.sin(2 * np.pi * phase), 0.0)

@@ -15,9 +15,9 @@ from typing import Iterable
 
 from solver.effects import EFFECTS, EffectContext, EffectError, TankerGeometry, apply_effects, validate_effects
 from solver.model import Model, Trajectory
+from solver.units import LB
 from workbench.errors import InputError
 
-LB = 0.45359237
 # Turbulence and bow-wave tables cover at least this much simulated time, so a
 # run longer than the case says (`--duration`) still sees a live field.
 TABLE_MIN_S = 600.0

@@ -18,10 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from solver.effects import EFFECTS, ORDER
-from solver.integrate import simulate
-from solver.statics import solve_static
-from workbench.cases import build_model, load_case
-from workbench.effects_case import with_effects
+from workbench.cases import load_case
+from workbench.simulate import simulate_case
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMO = ROOT / "cases" / "demo" / "kdc10_doublet_demo.toml"
@@ -51,10 +49,8 @@ def _case(case_path: Path, model_overrides: dict, duration: float):
 
 
 def _run(case, effects: dict, duration: float):
-    model = build_model(with_effects(case, effects))
-    s0 = solve_static(model)
-    res = simulate(model, duration, s0, record_dt=0.02)
-    return s0, res
+    sim = simulate_case(case, effects=effects, duration=duration, record_dt=0.02)
+    return sim.static, sim.result
 
 
 def _metrics(s0, res) -> dict:

@@ -43,11 +43,10 @@ def doublet_figures(outcome, out_dir: Path) -> list[Path]:
     tol = next((g.threshold for g in outcome.gates if g.metric == "drogue_steady_z_error_m"), None)
     for log_id, runs in _runs_by_log(outcome).items():
         rec = read_record(runs[0].log_path)
-        ors = rec.topic("/ors/drogue")
-        ok = ors["valid"].to_numpy(bool)
+        fixes = rec.tracker_fixes()
         fig, ax = plt.subplots(figsize=(8, 3.6))
-        t = ors.index.to_numpy(float)[ok]
-        z = ors["z_m"].to_numpy(float)[ok]
+        t = fixes.index.to_numpy(float)
+        z = fixes["z_m"].to_numpy(float)
         ax.plot(t, z, ".", ms=2, color="k", label="flight (ORS)")
         if tol is not None:
             zs = runs[0].metrics.get("drogue_steady_z_m_log")
@@ -99,8 +98,7 @@ def engagement_figures(outcome, out_dir: Path) -> list[Path]:
         rec = read_record(runs[0].log_path)
         moments = engagement_moments(rec)
         reel = rec.topic("/reel/hose_out")
-        ors = rec.topic("/ors/drogue")
-        ok = ors["valid"].to_numpy(bool)
+        fixes = rec.tracker_fixes()
         fig, axes = plt.subplots(2, 2, figsize=(10, 6))
         ax = axes[0, 0]
         ax.plot(reel.index, reel["length_m"], color="k", lw=1, label="flight")
@@ -111,10 +109,10 @@ def engagement_figures(outcome, out_dir: Path) -> list[Path]:
         ax.set_title("reel (Fig. 17)")
         ax.legend(fontsize=7)
         ax = axes[0, 1]
-        x0 = np.median(ors["x_m"].to_numpy(float)[ok][:30])
-        z0 = np.median(ors["z_m"].to_numpy(float)[ok][:30])
-        ax.plot(ors.index[ok], ors["x_m"][ok] - x0, ".", ms=2, color="k", label="flight x")
-        ax.plot(ors.index[ok], ors["z_m"][ok] - z0, ".", ms=2, color="0.5", label="flight z")
+        x0 = np.median(fixes["x_m"].to_numpy(float)[:30])
+        z0 = np.median(fixes["z_m"].to_numpy(float)[:30])
+        ax.plot(fixes.index, fixes["x_m"] - x0, ".", ms=2, color="k", label="flight x")
+        ax.plot(fixes.index, fixes["z_m"] - z0, ".", ms=2, color="0.5", label="flight z")
         r = runs[0]
         e = r.result.end_xyz
         ax.plot(r.result.t, e[:, 0] - e[0, 0], color=COLORS[0], lw=1, label="model x")

@@ -6,10 +6,10 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from solver.units import FT
 from workbench.errors import InputError
 from workbench.provenance import FileCache
 
-FT = 0.3048
 DEFAULT_PATH = Path(__file__).resolve().parent.parent / "flighttest" / "logs" / "hardware.toml"
 
 

@@ -55,12 +55,12 @@ def payout(rec: FlightRecord) -> tuple[np.ndarray, np.ndarray]:
 
 
 def contact_window(rec: FlightRecord) -> tuple[float, float]:
-    ev = rec.topic("/probe/events")
-    contact = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "contact"]
-    if not contact:
+    """(contact, disconnect) of an engagement: a log without contact is refused,
+    one without disconnect is held to its end (inf)."""
+    t_on, t_off = rec.contact_events()
+    if t_on is None:
         raise LogError(rec.path, "topic /probe/events", "no contact event")
-    disc = [float(t) for t, e in zip(ev.index, ev["event"]) if e == "disconnect" and t > contact[0]]
-    return contact[0], (disc[0] if disc else np.inf)
+    return t_on, (np.inf if t_off is None else t_off)
 
 
 def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray, stiffness: float = 0.0,
@@ -78,12 +78,11 @@ def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray, stiffness:
     probe = rec.topic("/receiver/probe")
     tp = probe.index.to_numpy(float)
     pp = probe[["x_m", "y_m", "z_m"]].to_numpy(float)
-    ors = rec.topic("/ors/drogue")
-    td_all = ors.index.to_numpy(float)
-    valid = ors["valid"].to_numpy(bool)
-    dd_all = ors[["x_m", "y_m", "z_m"]].to_numpy(float)
-    ok = valid & (td_all >= t_on + 0.5) & (td_all <= min(t_off, tp[-1]) - 0.5)
-    pre = valid & (td_all >= t_on - 3.0) & (td_all < t_on)
+    fixes = rec.tracker_fixes()
+    td_all = fixes.index.to_numpy(float)
+    dd_all = fixes[["x_m", "y_m", "z_m"]].to_numpy(float)
+    ok = (td_all >= t_on + 0.5) & (td_all <= min(t_off, tp[-1]) - 0.5)
+    pre = (td_all >= t_on - 3.0) & (td_all < t_on)
     if ok.sum() < 5 or pre.sum() < 5:
         raise LogError(rec.path, "topic /ors/drogue",
                        "too few valid fixes around contact to place the drogue on the probe")

@@ -1,9 +1,7 @@
 """`workbench run`: one case through the solver, results to a folder."""
 from __future__ import annotations
 
-import dataclasses
 import json
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,11 +9,11 @@ import numpy as np
 
 from flighttest import FlightRecord
 from solver.chain import DivergenceError
-from solver.integrate import simulate
 from solver.result import SimulationResult
-from solver.statics import StaticSolveError, solve_static
-from workbench.cases import DEFAULT_DURATION_S, Case, build_model
+from solver.statics import StaticSolveError
+from workbench.cases import Case
 from workbench.errors import InputError
+from workbench.simulate import simulate_case
 
 # `run` writes here, apart from the validation report (reports/out): one folder per case id
 DEFAULT_OUT = Path("reports/run")
@@ -77,44 +75,24 @@ def check_log_fits(case: Case, record: FlightRecord) -> None:
                              f"of {case.path}")
 
 
-def _run_against_log(case: Case, record: FlightRecord, duration_s: float | None) -> RunOutcome:
-    """The case on one log as `validate` runs it (its model, no variant):
-    condition, tow point, reel and probe from the log, through its span or
-    `duration_s` from its start."""
-    from workbench.validate import simulate_against
-    check_log_fits(case, record)
-    if duration_s is not None:
-        case = dataclasses.replace(case, tables={**case.tables, "run": {**case["run"], "duration_s": duration_s}})
-    t0 = time.perf_counter()
-    try:
-        res, _ = simulate_against(case, {"id": "case"}, record, {})
-    except (StaticSolveError, DivergenceError) as exc:
-        raise type(exc)(f"{case.path} on {record.path}: {exc}") from None
-    wall = time.perf_counter() - t0
-    res.provenance = {"case": case.path, "case_id": case.id, "structure": case["model.structure"]["source"],
-                      "log": str(record.path), "log_id": record.info.test_id}
-    return RunOutcome(case, res, wall, float("nan"), record)
-
-
 def run_case(case: Case, duration_s: float | None = None, record: FlightRecord | None = None) -> RunOutcome:
     """Simulate `case` (its static trail, then `duration_s` or the case's run);
-    with `record`, a flight log of the case's kind and hardware, against it."""
+    with `record`, a flight log of the case's kind and hardware, against it as
+    `validate` runs it (its model, no variant): condition, tow point, reel and
+    probe from the log, through its span or `duration_s` from its start."""
     if record is not None:
-        return _run_against_log(case, record, duration_s)
-    model = build_model(case)
-    dur = float(duration_s if duration_s is not None else case["run"]["duration_s"] or DEFAULT_DURATION_S)
+        check_log_fits(case, record)
     try:
-        t0 = time.perf_counter()
-        s0 = solve_static(model)
-        static_ms = (time.perf_counter() - t0) * 1e3
-        t0 = time.perf_counter()
-        res = simulate(model, dur, s0, record_dt=float(case["run"]["record_dt_s"]))
-        wall = time.perf_counter() - t0
+        sim = simulate_case(case, record=record, duration=duration_s)
     except (StaticSolveError, DivergenceError) as exc:
-        # still a numerical failure (exit 3), now naming the case
-        raise type(exc)(f"{case.path}: {exc}") from None
+        # still a numerical failure (exit 3), now naming the case (and its log)
+        on = f" on {record.path}" if record is not None else ""
+        raise type(exc)(f"{case.path}{on}: {exc}") from None
+    res = sim.result
     res.provenance = {"case": case.path, "case_id": case.id, "structure": case["model.structure"]["source"]}
-    return RunOutcome(case, res, wall, static_ms)
+    if record is not None:
+        res.provenance.update(log=str(record.path), log_id=record.info.test_id)
+    return RunOutcome(case, res, sim.run_s, sim.static_s * 1e3, record)
 
 
 def write_mcap(outcome: RunOutcome, path: Path) -> Path:

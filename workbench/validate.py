@@ -12,9 +12,7 @@ model, and are gated on the logs they were not fitted to.
 """
 from __future__ import annotations
 
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,20 +23,18 @@ from scipy.optimize import minimize_scalar
 from flighttest import FlightRecord, LogError, analyze_record, read_record
 from flighttest.compare import compare_records
 from solver.chain import DivergenceError
-from solver.integrate import simulate
 from solver.result import SimulationResult
-from solver.statics import StaticSolveError, solve_static
+from solver.statics import StaticSolveError
 from workbench import log_inputs
-from workbench.cases import Case, build_model, case_log_paths, load_case
+from workbench.cases import Case, case_log_paths, load_case
 from workbench.diagnosis import EffectCalibrator, Setup, SimulationFailed
-from workbench.effects_case import with_effects
 from workbench.effects_compare import apply_comparison_effects
 from workbench.errors import EXIT_BAD_INPUT, InputError, exit_code_for
 from workbench.gates import FindingResult, GateResult, evaluate_findings, evaluate_gates
+from workbench.parallel import Mapper
 from workbench.provenance import code_version, json_safe
 from workbench.simlog import result_to_record
-
-TRAIL_RUN_S = 2.0   # a steady trail is the static answer; a short run checks it holds
+from workbench.simulate import simulate_case
 
 
 @dataclass
@@ -107,33 +103,6 @@ def _overrides(variant: dict, tuned: dict) -> dict:
     return out
 
 
-def _run_duration(case: Case, rec: FlightRecord) -> float:
-    if case["run"]["duration_s"]:
-        return float(case["run"]["duration_s"])
-    if case.kind == "trail":
-        return TRAIL_RUN_S
-    return float(rec.topic("/ors/drogue").index[-1])
-
-
-def simulate_against(case: Case, variant: dict, rec: FlightRecord, tuned: dict) -> tuple[SimulationResult, dict]:
-    over = _overrides(variant, tuned)
-    model = build_model(case, record=rec, variant=over)
-    t0 = float(model.tow.t[0])
-    s0 = solve_static(model, t0)
-    if case["model"]["drogue_after_contact"] == "from_log":
-        model.end = log_inputs.probe_held_drogue(case, model, rec, s0.pos[-1])
-    res = simulate(model, t0 + _run_duration(case, rec), s0, record_dt=float(case["run"]["record_dt_s"]))
-    options = {"n_elements": model.n_elements, "reel": model.reel.mode,
-               "drogue_lift_scale": model.drogue.lift_scale if model.drogue else None,
-               "drogue_drag_scale": model.drogue.drag_scale if model.drogue else None,
-               "drogue_after_contact": case["model"]["drogue_after_contact"],
-               "probe_coupling_N_m": case["model"]["probe_coupling_N_m"],
-               "probe_coupling_damping_ratio": case["model"]["probe_coupling_damping_ratio"],
-               "structure": case["model.structure"]["source"],
-               "true_airspeed_mps": model.wind.mean_speed, "air_density": model.air_density}
-    return res, options
-
-
 def _whip_metrics(res: SimulationResult, rec: FlightRecord) -> dict:
     """Hose-whip measures of an engagement run (the paper's reel study and its
     future work): peak slack, wave amplitude near the tow point, peak tension,
@@ -194,19 +163,20 @@ def _one_run(args) -> Run:
     if len(args) == 3:
         return _one_ringdown(args)
     case, variant, log_path, tuned = args
-    # a calibrated variant carries its fitted effects over the case's own
-    case = with_effects(case, variant.get("effects") or {})
     rec = read_record(log_path)
     t0 = time.perf_counter()
-    res, options = simulate_against(case, variant, rec, tuned)
+    # a calibrated variant carries its fitted effects over the case's own
+    sim = simulate_case(case, rec, variant=_overrides(variant, tuned), effects=variant.get("effects"))
     wall = time.perf_counter() - t0
+    case, res = sim.case, sim.result
     sim_rec = result_to_record(res, rec, note=f"case {case.id}, variant {variant['id']}")
     # comparison-only effects (the tracker's delay) act on the log as compared, not on the physics
     metrics = compare_records(apply_comparison_effects(rec, case["effects"]), sim_rec)
     if case.kind == "engagement":
         metrics.update(_whip_metrics(res, rec))
     held_out = rec.info.test_id not in training_logs(variant)
-    return Run(case.id, variant["id"], rec.info.test_id, str(log_path), metrics, res, wall, options, held_out)
+    return Run(case.id, variant["id"], rec.info.test_id, str(log_path), metrics, res, wall, sim.options.to_dict(),
+               held_out)
 
 
 def steady_drogue_z(rec: FlightRecord) -> float:
@@ -214,9 +184,8 @@ def steady_drogue_z(rec: FlightRecord) -> float:
     engagement the median of the valid fixes before contact."""
     if rec.info.test_kind == "engagement":
         t_on, _ = log_inputs.contact_window(rec)
-        ors = rec.topic("/ors/drogue")
-        ok = ors["valid"].to_numpy(bool) & (ors.index < t_on)
-        return float(np.median(ors["z_m"].to_numpy(float)[ok]))
+        fixes = rec.tracker_fixes()
+        return float(np.median(fixes["z_m"].to_numpy(float)[fixes.index < t_on]))
     return float(analyze_record(rec)["drogue_steady_z_m"])
 
 
@@ -229,15 +198,18 @@ def tune_drogue_lift(case: Case, variant: dict, records: list[FlightRecord]) -> 
     def cost(scale):
         err = 0.0
         for rec, z_log in targets:
-            m = build_model(case, record=rec, variant={**_overrides(variant, {}), "drogue_lift_scale": scale})
-            err += (solve_static(m, float(m.tow.t[0])).pos[-1, 2] - z_log) ** 2
+            sim = simulate_case(case, rec, variant={**_overrides(variant, {}), "drogue_lift_scale": scale},
+                                duration=0.0)
+            err += (sim.static.pos[-1, 2] - z_log) ** 2
         return err
     res = minimize_scalar(cost, bounds=(0.0, 2.0), method="bounded", options={"xatol": 1e-3})
     return float(res.x)
 
 
-def validate_cases(case_paths: list[Path], workers: int | None = None, progress: bool = True) -> list[CaseOutcome]:
-    """Run every case's runs (in parallel over processes) and gate them."""
+def validate_cases(case_paths: list[Path], workers: int | None = None, progress: bool = True,
+                   scheduler: str | None = None) -> list[CaseOutcome]:
+    """Run every case's runs (in parallel over local processes, or on the Dask
+    cluster at `scheduler`) and gate them."""
     from tqdm import tqdm
     cases = [load_case(p) for p in case_paths]
     outcomes: dict[str, CaseOutcome] = {}
@@ -280,17 +252,12 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
         for v in variants:
             for p in paths:
                 jobs.append((case, v, p, tuned))
-    workers = workers or max(1, min(len(jobs), os.cpu_count() or 1))
     bar = tqdm(total=len(jobs), desc="validate", unit="run", disable=not progress)
-    if workers > 1 and len(jobs) > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = [(job, pool.submit(_one_run, job)) for job in jobs]
-            for job, fut in futures:
-                _collect(outcomes, job, fut.result, bar)
-    else:
-        for job in jobs:
-            _collect(outcomes, job, lambda job=job: _one_run(job), bar)
+    with Mapper(workers, scheduler) as mapper:
+        done = mapper(_guarded_run, jobs, progress=lambda _: bar.update(1))
     bar.close()
+    for job, (run, error) in zip(jobs, done):
+        _collect(outcomes, job, run, error)
     for oc in outcomes.values():
         if oc.error is None:
             default_variant = variants_of(oc.case)[0]["id"]
@@ -310,19 +277,26 @@ def calibrate_variant(case: Case, v: dict, paths: list[str]) -> dict:
             "gap_before": cal.gap_before_, "on": [Path(p).stem for p in paths]}
 
 
-def _collect(outcomes, job, get, bar):
+def _guarded_run(job) -> tuple[Run | None, tuple[str, int] | None]:
+    """`_one_run`, with a failure returned as (message, exit code) so that one
+    bad run leaves the others' results (and a worker's exception need not
+    pickle)."""
+    try:
+        return _one_run(job), None
+    except (LogError, InputError, StaticSolveError, DivergenceError, ValueError) as exc:
+        # a ValueError here is a record the comparison refuses: bad input
+        return None, (str(exc), EXIT_BAD_INPUT if isinstance(exc, ValueError) else exit_code_for(exc))
+
+
+def _collect(outcomes, job, run: Run | None, error: tuple[str, int] | None):
     case, v, p = job[:3]
     oc = outcomes[case.id]
-    try:
-        oc.runs.append(get())
-    except (LogError, InputError, StaticSolveError, DivergenceError, ValueError) as exc:
+    if run is not None:
+        oc.runs.append(run)
+    elif oc.error is None:
         where = Path(p).name if isinstance(p, (str, Path)) else f"records {', '.join(p['records'])}"
-        msg = f"variant {v['id']}, {where}: {exc}"
-        if oc.error is None:
-            # a ValueError here is a record the comparison refuses: bad input
-            oc.error = msg
-            oc.error_code = EXIT_BAD_INPUT if isinstance(exc, ValueError) else exit_code_for(exc)
-    bar.update(1)
+        oc.error = f"variant {v['id']}, {where}: {error[0]}"
+        oc.error_code = error[1]
 
 
 def results_dict(outcomes: list[CaseOutcome]) -> dict:

@@ -1,4 +1,5 @@
 """Towed hose in uniform flow: statics against closed forms, and the zero-tension case."""
+import dataclasses
 import math
 
 import numpy as np
@@ -76,8 +77,7 @@ def compress_model(EI):
     p0 = s.pos[-1]
     t = np.array([0.0, 0.5, 1.7, 10.0])
     path = np.vstack([p0, p0, p0 - [6.0, 0, 0], p0 - [6.0, 0, 0]])
-    m.end = EndConstraint(Trajectory(t, path), t_on=0.0)
-    return m, s
+    return dataclasses.replace(m, end=EndConstraint(Trajectory(t, path), t_on=0.0)), s
 
 
 def test_zero_tension_runs_bounded():
@@ -129,8 +129,8 @@ def test_probe_holding_the_drogue_carries_its_load():
     p0 = s.pos[-1]
     t = np.array([0.0, 3.0, 4.0, 12.0])
     path = np.vstack([p0, p0, p0 - [1.5, 0, 0], p0 - [1.5, 0, 0]])
-    m.end = EndConstraint(Trajectory(t, path), t_on=0.5)
-    r = simulate(m, 12.0, s, record_dt=0.01)
+    held_model = dataclasses.replace(m, end=EndConstraint(Trajectory(t, path), t_on=0.5))
+    r = simulate(held_model, 12.0, s, record_dt=0.01)
     drag = 0.5 * RHO * U ** 2 * d.drag_area
     held = (r.t > 1.0) & (r.t < 3.0)
     assert np.max(np.linalg.norm(r.probe_force[held], axis=1)) < 0.02 * drag
@@ -157,8 +157,8 @@ def test_compliant_probe_coupling_spreads_the_contact_impact():
     k, v = 2.0e5, 2.0
     peaks = {}
     for name, stiffness in (("rigid", 0.0), ("spring", k)):
-        m.end = EndConstraint(traj, t_on=0.5, stiffness=stiffness)
-        r = simulate(m, 1.5, s, record_dt=0.001)
+        held = dataclasses.replace(m, end=EndConstraint(traj, t_on=0.5, stiffness=stiffness))
+        r = simulate(held, 1.5, s, record_dt=0.001)
         peaks[name] = np.max(np.linalg.norm(r.probe_force, axis=1))
     impact = v * np.sqrt(k * d.mass)
     assert 0.5 * impact < peaks["spring"] < 1.6 * impact, (peaks, impact)

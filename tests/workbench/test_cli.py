@@ -110,7 +110,7 @@ def _diverge(*_args, **_kwargs):
 
 
 def test_run_numerical_failure_exits_three_naming_time_and_element(monkeypatch, tmp_path):
-    monkeypatch.setattr("workbench.run.simulate", _diverge)
+    monkeypatch.setattr("workbench.simulate.simulate", _diverge)
     res = invoke("run", DEMO, "--out", tmp_path)
     assert res.exit_code == EXIT_NUMERICAL, res.output
     (line,) = res.output.strip().splitlines()
@@ -121,14 +121,14 @@ def test_run_numerical_failure_exits_three_naming_time_and_element(monkeypatch, 
 def test_run_static_failure_exits_three(monkeypatch, tmp_path):
     def stall(*_a, **_k):
         raise StaticSolveError("static solve stalled at iteration 12: residual 3.1 N (tolerance 0.01 N)")
-    monkeypatch.setattr("workbench.run.solve_static", stall)
+    monkeypatch.setattr("workbench.simulate.solve_static", stall)
     res = invoke("run", DEMO, "--out", tmp_path)
     assert res.exit_code == EXIT_NUMERICAL, res.output
     assert "numerical failure" in res.output and "static solve stalled" in res.output
 
 
 def test_validate_numerical_failure_exits_three(monkeypatch, tmp_path):
-    monkeypatch.setattr("workbench.validate.simulate", _diverge)
+    monkeypatch.setattr("workbench.simulate.simulate", _diverge)
     out = tmp_path / "out"
     res = invoke("validate", case_file(tmp_path), "--out", out, "--no-progress", "--workers", "1")
     assert res.exit_code == EXIT_NUMERICAL, res.output

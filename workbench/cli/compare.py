@@ -5,6 +5,8 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.params import POSITIVE
+
 
 @click.command()
 @click.argument("log_file", type=click.Path(dir_okay=False, path_type=Path))
@@ -14,7 +16,7 @@ import click
 @click.option("--case", "case_file", default=None, metavar="CASE",
               help="The case to simulate (a file, or a name under cases/); default: the case in cases/ that "
                    "lists the log, else the diagnosis's baseline template for the log's kind.")
-@click.option("--duration", type=float, default=None, help="Simulated seconds from the log's start "
+@click.option("--duration", type=POSITIVE, default=None, help="Simulated seconds from the log's start "
                                                            "(default: the case's, or the log's span).")
 @click.option("--animate", "gif_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Also write a GIF of the simulated hose over the log's video points.")

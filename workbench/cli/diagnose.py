@@ -21,10 +21,10 @@ DEFAULT_OUT = Path("reports/diagnose-out")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=DEFAULT_OUT,
               show_default=True, help="Folder for diagnosis.json and diagnosis.html.")
 @click.option("--selftest", is_flag=True, help="Generate logs with a withheld effect and diagnose them blind.")
-@click.option("--n", "n_logs", type=int, default=42, show_default=True, help="Generated logs in the selftest.")
-@click.option("--seed", type=int, default=2026, show_default=True, help="Selftest random seed.")
-@click.option("--n-elements", type=int, default=None, help="Hose elements of the diagnosis (default 20).")
-@click.option("--workers", type=int, default=None, help="Local worker processes (default: all cores).")
+@click.option("--n", "n_logs", type=click.IntRange(min=1), default=42, show_default=True, help="Generated logs in the selftest.")
+@click.option("--seed", type=click.IntRange(min=0), default=2026, show_default=True, help="Selftest random seed.")
+@click.option("--n-elements", type=click.IntRange(2, 400), default=None, help="Hose elements of the diagnosis (default 20).")
+@click.option("--workers", type=click.IntRange(min=1), default=None, help="Local worker processes (default: all cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the candidate fits on a Dask distributed cluster (e.g. tcp://host:8786).")
 def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, scheduler) -> None:

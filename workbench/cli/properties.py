@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.params import ABSOLUTE_ZERO_F, POSITIVE, FiniteFloatRange
 from workbench.errors import EXIT_GATE_FAILED, InputError
 
 
@@ -97,8 +98,8 @@ def build(logs_dir: Path | None, out_dir: Path | None, update_committed: bool, h
 
 @properties.command()
 @click.argument("hose")
-@click.argument("temperature_f", type=float)
-@click.argument("element_length_m", type=float)
+@click.argument("temperature_f", type=FiniteFloatRange(min=ABSOLUTE_ZERO_F, min_open=True))
+@click.argument("element_length_m", type=POSITIVE)
 @click.option("--file", "prop_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Property file [default: cases/properties/hose_properties.json].")
 @click.option("--allow-extrapolation", is_flag=True,

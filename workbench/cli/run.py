@@ -5,6 +5,7 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.params import POSITIVE
 from workbench.run import DEFAULT_OUT
 
 
@@ -15,7 +16,7 @@ from workbench.run import DEFAULT_OUT
                    "reel and probe from it); needed by cases that take them from a log.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=DEFAULT_OUT,
               show_default=True, help="Folder for the run's outputs (a subfolder per case id).")
-@click.option("--duration", type=float, default=None,
+@click.option("--duration", type=POSITIVE, default=None,
               help="Simulated seconds (default: the case's, or the log's span).")
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:key=value,...]",
               help="Turn on an unmodelled effect, over the case's [effects.NAME] (repeatable).")

@@ -47,12 +47,14 @@ def _diagnosis_section(diagnosis_file: Path) -> dict:
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
               show_default=True, help="Folder for report.html, report.pdf, results.json, junit.xml.")
 @click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes (default: one per core).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run the campaign on a Dask distributed cluster (e.g. tcp://host:8786) instead of local processes.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @click.option("--diagnosis", "diagnosis_file", type=click.Path(dir_okay=False, path_type=Path),
               default=Path("reports/diagnose/diagnosis.json"), show_default=True,
               help="A diagnosis.json to fold into the report as its own section (skipped if absent).")
-def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool,
-             diagnosis_file: Path) -> None:
+def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, scheduler: str | None,
+             no_progress: bool, diagnosis_file: Path) -> None:
     """Run cases against their logs, check gates and findings: `validate all` or `validate CASE...`.
 
     Exit status: 0 every gate passes and every finding is as expected; 1 a gate
@@ -62,7 +64,7 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
     from workbench.validate import results_dict, validate_cases
     paths = case_paths(targets)
     t0 = time.perf_counter()
-    outcomes = validate_cases(paths, workers=workers, progress=not no_progress)
+    outcomes = validate_cases(paths, workers=workers, progress=not no_progress, scheduler=scheduler)
     results = results_dict(outcomes)
     wall = time.perf_counter() - t0
     results["wall_s"] = wall

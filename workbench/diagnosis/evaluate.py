@@ -44,13 +44,11 @@ from flighttest import FlightRecord, analyze_record, read_record
 from flighttest import metrics as M
 from solver.effects import EFFECTS
 from solver.chain import DivergenceError
-from solver.integrate import simulate
-from solver.statics import StaticSolveError, solve_static
+from solver.statics import StaticSolveError
 from workbench import log_inputs
-from workbench.cases import build_model
 from workbench.diagnosis.setup import BIN_S, BLOCK_S, STATION_M, VIDEO_WINDOW_S, Setup, family_of
-from workbench.effects_case import with_effects
 from workbench.errors import InputError, SimulationFailed
+from workbench.simulate import simulate_case
 
 # what a simulation of a candidate can fail with: the solver diverging or
 # finding no static shape, or a parameter combination the model refuses
@@ -273,22 +271,17 @@ def _freeze(effects: Mapping) -> tuple:
 def _simulate_frozen(path: str, frozen: tuple, setup: Setup):
     effects = {k: dict(v) for k, v in frozen}
     rec = record(path)
-    case = setup.case_for(rec)
-    if effects:
-        case = with_effects(case, effects)
-    model = build_model(case, record=rec, variant=dict(setup.overrides))
-    t0 = float(model.tow.t[0])
-    s0 = solve_static(model, t0)
     kind = rec.info.test_kind
+    # a trail is compared with its steady line (no time run); the others up to the tracker's last fix
+    until = None if kind == "trail" else float(rec.topic("/ors/drogue").index[-1])
+    sim = simulate_case(setup.case_for(rec), rec, variant=dict(setup.overrides), effects=effects,
+                        duration=0.0 if kind == "trail" else None, until=until)
     if kind == "trail":
-        pts = s0.pos.copy()
+        pts = sim.static.pos.copy()
         # the hose line the video sees ends at the drogue's hinge, i.e. the last hose node
-        line = pts[:-1] if model.drogue is not None else pts
-        return {"t": np.array([t0]), "end": pts[-1:].copy(), "hose": lambda t, line=line: line}
-    if case["model"]["drogue_after_contact"] == "from_log":
-        model.end = log_inputs.probe_held_drogue(case, model, rec, s0.pos[-1])
-    t_end = float(rec.topic("/ors/drogue").index[-1])
-    res = simulate(model, t_end, s0, record_dt=float(case["run"]["record_dt_s"]))
+        line = pts[:-1] if sim.model.drogue is not None else pts
+        return {"t": np.array([float(sim.model.tow.t[0])]), "end": pts[-1:].copy(), "hose": lambda t, line=line: line}
+    res = sim.result
     ts = res.t
 
     def hose(t, res=res, ts=ts):

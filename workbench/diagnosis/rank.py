@@ -21,11 +21,11 @@ from __future__ import annotations
 import math
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Callable
 
 from solver.effects import EFFECTS
+from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
 from workbench.errors import SimulationFailed
 from workbench.diagnosis.findings import findings
@@ -36,29 +36,12 @@ from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, NOISE_F
                                        PAIR_GAIN, PAIR_WHEN_LEFT, PARAM_PENALTY, SCREEN_KEEP, Setup, applicable,
                                        calibrated_params, family_of)
 from workbench.diagnosis.where import where_map
+from workbench.parallel import Mapper
 
 
-def _local_mapper(workers: int | None):
-    workers = workers or max(1, min(os.cpu_count() or 1, 8))
-
-    def mapper(fn, jobs):
-        jobs = list(jobs)
-        if workers <= 1 or len(jobs) <= 1:
-            return [fn(j) for j in jobs]
-        with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
-            return list(pool.map(fn, jobs))
-    return mapper
-
-
-def _dask_mapper(address: str):
-    from distributed import Client
-    client = Client(address)
-
-    def mapper(fn, jobs):
-        futs = client.map(fn, list(jobs), pure=False)
-        return client.gather(futs)
-    mapper.client = client
-    return mapper
+def _default_workers(workers: int | None) -> int:
+    """`workers`, else one per core up to `diagnosis.max_workers`."""
+    return workers or max(1, min(os.cpu_count() or 1, defaults["diagnosis.max_workers"]))
 
 
 def _score_candidate(job) -> Candidate:
@@ -122,7 +105,7 @@ def _ranked(results: list, singles: list, floor: float) -> list:
 def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable | None = None,
                     progress: Callable[[str], None] | None = None) -> FamilyDiagnosis:
     """The where-map, ranking and gaps of one family of logs."""
-    mapper = mapper or _local_mapper(None)
+    mapper = mapper or Mapper(_default_workers(None))
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
     paths = [str(p) for p in paths]
@@ -215,13 +198,9 @@ def diagnose(paths, n_elements: int = DEFAULT_ELEMENTS, workers: int | None = No
              progress: Callable[[str], None] | None = None) -> Diagnosis:
     """Diagnose every family among `paths` (local processes, or the Dask
     cluster at `scheduler`)."""
-    mapper = _dask_mapper(scheduler) if scheduler else _local_mapper(workers)
-    try:
+    with Mapper(_default_workers(workers), scheduler) as mapper:
         fams = {name: diagnose_family(ps, Setup(n_elements), mapper, progress)
                 for name, ps in group_families(paths).items()}
-    finally:
-        if scheduler:
-            mapper.client.close()
     return Diagnosis(logs=[str(p) for p in paths], families=fams,
                      findings=[f for d in fams.values() for f in findings(d)],
                      scheduler=scheduler or "local processes", gap_definition=GAP_DEFINITION,

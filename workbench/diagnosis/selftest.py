@@ -15,10 +15,8 @@ on travels only in the truth list returned here.
 from __future__ import annotations
 
 import dataclasses
-import os
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -26,18 +24,19 @@ import pandas as pd
 
 from flighttest import make_record, read_record, write_record
 from solver.effects import EFFECTS
-from solver.integrate import simulate
-from solver.statics import solve_static
 from workbench import log_inputs
-from workbench.cases import build_model, load_case
+from workbench.cases import load_case
+from workbench.config import defaults
 from workbench.diagnosis.rank import diagnose_family
 from workbench.diagnosis.setup import DEFAULT_ELEMENTS, TEMPLATES, Setup
 from workbench.effects_case import with_effects
+from workbench.parallel import Mapper
+from workbench.simulate import simulate_case
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 FLIGHT = ROOT / "flighttest" / "logs" / "flight"
 CARDS = {"pitch_doublet": "PD-G3-1.mcap", "trail": "TR-KDC10-E7.mcap", "engagement": "EN-KDC10-E7.mcap"}
-TRUTH_ELEMENTS = 40
+TRUTH_ELEMENTS = defaults["selftest.truth_elements"]
 
 ORS_NOISE_M = 0.015
 ORS_DROPOUT = 0.04
@@ -137,22 +136,19 @@ def generate(kind: str, effect: str, seed: int, out_dir: Path) -> tuple[Path, di
     inp = make_record(raw, topics, like.start_time_ns)
     if kind == "engagement":
         # the receiver flies to where this trail puts the drogue, not the real log's
-        m0 = build_model(_case(kind, raw, {k: v for k, v in phys.items() if k != "bow_wave"}), record=inp)
-        d0 = solve_static(m0, float(m0.tow.t[0])).pos[-1]
-        tc, _ = log_inputs.contact_window(like)
-        ors = like.topic("/ors/drogue")
-        pre = ors["valid"].to_numpy(bool) & (ors.index < tc) & (ors.index > tc - 3.0)
-        shift = d0 - np.median(ors[["x_m", "y_m", "z_m"]].to_numpy(float)[pre], axis=0)
+        d0 = simulate_case(_case(kind, raw, {k: v for k, v in phys.items() if k != "bow_wave"}), inp,
+                           duration=0.0).static.pos[-1]
+        tc, _ = like.contact_events()
+        fixes = like.tracker_fixes()
+        pre = (fixes.index < tc) & (fixes.index > tc - 3.0)
+        shift = d0 - np.median(fixes[["x_m", "y_m", "z_m"]].to_numpy(float)[pre], axis=0)
         pr = topics["/receiver/probe"]
         pr[["x_m", "y_m", "z_m"]] = pr[["x_m", "y_m", "z_m"]].to_numpy(float) + shift
         topics["/receiver/probe"] = pr
         inp = make_record(raw, topics, like.start_time_ns)
-    model = build_model(_case(kind, raw, {**phys, **turb}), record=inp)
-    t0 = float(model.tow.t[0])
-    s0 = solve_static(model, t0)
-    if kind == "engagement":
-        model.end = log_inputs.drogue_while_engaged(like, s0.pos[-1])
-    res = simulate(model, T, s0, record_dt=0.01)
+    # an engagement's template holds the drogue rigidly on the (shifted) probe from contact
+    res = simulate_case(_case(kind, raw, {**phys, **turb}), inp, until=T,
+                        record_dt=defaults["selftest.record_dt_s"]).result
 
     out = dict(topics)
     n_tow = len(topics["/tanker/tow_point"])
@@ -206,7 +202,8 @@ def _one(job) -> dict:
     t = time.perf_counter()
     path, truth = generate(kind, effect, seed, Path(out_dir))
     t_gen = time.perf_counter() - t
-    d = diagnose_family([str(path)], Setup(n_elements), mapper=lambda fn, jobs: [fn(j) for j in jobs])
+    # this job already is one worker's: the diagnosis inside it runs in series
+    d = diagnose_family([str(path)], Setup(n_elements), mapper=Mapper(workers=1))
     top = d.ranking[0]
     found = next((c for c in d.ranking if c.effect == effect), None)
     # parameters as diagnosis.json has them (a single effect's without its level)
@@ -229,21 +226,10 @@ def run_selftest(n: int = 42, seed: int = 2026, n_elements: int | None = None, w
     tmp = tempfile.mkdtemp(prefix="diag-selftest-") if out_dir is None else str(out_dir)
     Path(tmp).mkdir(parents=True, exist_ok=True)
     jobs = [(k, e, s, tmp, n_elements) for k, e, s in _plan(n, seed)]
-    if scheduler:
-        from distributed import Client
-        with Client(scheduler) as client:
-            rows = client.gather(client.map(_one, jobs, pure=False))
-    else:
-        w = workers or os.cpu_count() or 1
-        if w > 1:
-            with ProcessPoolExecutor(max_workers=w) as pool:
-                rows = []
-                for r in pool.map(_one, jobs):
-                    rows.append(r)
-                    if progress:
-                        progress(f"{r['log']}: {r['effect']} -> {r['top']} (shrink {r['shrink_heldout']:.2f})")
-        else:
-            rows = [_one(j) for j in jobs]
+    def said(r):
+        progress(f"{r['log']}: {r['effect']} -> {r['top']} (shrink {r['shrink_heldout']:.2f})")
+    with Mapper(workers, scheduler) as mapper:
+        rows = mapper(_one, jobs, progress=said if progress else None)
     shr = np.array([r["shrink_heldout"] for r in rows], float)
     by_kind = {}
     for k in KIND_EFFECTS:

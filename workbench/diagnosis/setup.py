@@ -15,22 +15,26 @@ from pathlib import Path
 from flighttest import FlightRecord
 from solver.effects import EFFECTS, Param
 from workbench.cases import Case, load_case
+from workbench.config import defaults
 from workbench.errors import InputError
 
 TEMPLATES = Path(__file__).resolve().parent.parent.parent / "cases" / "templates"
 DIAG_KINDS = ("pitch_doublet", "trail", "engagement")
 
-BIN_S = 0.25            # drogue channel averaging (a quarter of the shortest period seen)
-VIDEO_WINDOW_S = 1.0    # video normal errors averaged per window and station
-STATION_M = 3.0
-BLOCK_S = 2.0           # alternating train / held-out time blocks within one log
-NOISE_FACTOR = 2.0      # a gap under twice its noise floor is not a real gap
+# The method's constants (`workbench.config`, where each is explained) are
+# fixed for a process when the diagnosis is imported: its per-process caches
+# of observations and simulations are keyed by log, not by them.
+BIN_S = defaults["diagnosis.bin_s"]
+VIDEO_WINDOW_S = defaults["diagnosis.video_window_s"]
+STATION_M = defaults["diagnosis.station_m"]
+BLOCK_S = defaults["diagnosis.block_s"]
+NOISE_FACTOR = defaults["diagnosis.noise_factor"]
+DEFAULT_ELEMENTS = defaults["diagnosis.n_elements"]
 PARAM_PENALTY = 0.05    # each parameter must buy 5 % of held-out gap
 SCREEN_KEEP = 5         # effects calibrated in full after the screen
 PAIR_FROM = 3           # pairs among the best three singles
 PAIR_WHEN_LEFT = 0.2    # fit a pair when the best single leaves this share of the gap
 PAIR_GAIN = 0.25        # a pair ranks above its members only if it shrinks their best held-out gap by this share
-DEFAULT_ELEMENTS = 20   # 20 elements move the static drogue by ~1 mm against 40, at half the cost
 
 GAP_DEFINITION = {
     "pitch_doublet": "RMS over 0.25 s bins (2 s before the doublet to the end) of the tracker's drogue x, y, z "

@@ -18,6 +18,7 @@ from solver.linear import LinearModel, linearize
 from solver.model import Clamp, Model
 from solver.state import State
 from solver.statics import solve_static
+from solver.units import degF_to_K
 from workbench.errors import InputError
 from workbench.hardware import HoseSheet
 
@@ -25,10 +26,6 @@ from workbench.hardware import HoseSheet
 # mode computed about it is steady to ~1e-9 (tuning then does not chase noise),
 # loose enough for the round-off of the stiffest (64-element) axial springs.
 STATIC_TOL = 1e-8
-
-
-def fahrenheit_to_kelvin(t_F: float) -> float:
-    return (t_F - 32.0) * 5.0 / 9.0 + 273.15
 
 
 @dataclass(frozen=True)
@@ -71,7 +68,7 @@ class BenchRig:
                               EI=kb * l, EA=ka * l, bending_damping=cb * l, axial_damping=ca * l,
                               fuel_full=False, element_constants=fn)
         # still air in the rig at the measured temperature
-        atm = isa(0.0, delta_temperature=fahrenheit_to_kelvin(temperature_F) - isa(0.0).temperature)
+        atm = isa(0.0, delta_temperature=degF_to_K(temperature_F) - isa(0.0).temperature)
         return Model(hose, n_elements, atm.density, atm.kinematic_viscosity,
                      clamp=Clamp(self.clamp_direction), tip_mass=self.tip_mass)
 
