@@ -12,7 +12,9 @@ from solver.chain import DivergenceError
 from solver.integrate import simulate
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
+from workbench.budget import check_run
 from workbench.cases import DEFAULT_DURATION_S, Case, build_model
+from workbench.outputs import safe_name
 
 
 @dataclass
@@ -45,6 +47,7 @@ class RunOutcome:
 def run_case(case: Case, duration_s: float | None = None) -> RunOutcome:
     model = build_model(case)
     dur = float(duration_s if duration_s is not None else case["run"]["duration_s"] or DEFAULT_DURATION_S)
+    check_run(model, dur, float(case["run"]["record_dt_s"]), case.path)
     try:
         t0 = time.perf_counter()
         s0 = solve_static(model)
@@ -61,7 +64,7 @@ def run_case(case: Case, duration_s: float | None = None) -> RunOutcome:
 
 def write_outputs(outcome: RunOutcome, out_dir: Path) -> list[Path]:
     """timeseries.csv (scalar channels), summary.json, summary.png."""
-    d = Path(out_dir) / outcome.case.id
+    d = Path(out_dir) / safe_name(outcome.case.id)
     d.mkdir(parents=True, exist_ok=True)
     paths = [d / "timeseries.csv", d / "summary.json", d / "summary.png"]
     outcome.result.to_pandas().to_csv(paths[0])

@@ -29,6 +29,7 @@ from solver.integrate import simulate
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
 from workbench import log_inputs
+from workbench.budget import check_run
 from workbench.cases import Case, build_model, case_log_paths, load_case
 from workbench.diagnosis import EffectCalibrator, Setup, SimulationFailed
 from workbench.effects_case import with_effects
@@ -101,10 +102,12 @@ def simulate_against(case: Case, variant: dict, rec: FlightRecord, tuned: dict) 
     over = _overrides(variant, tuned)
     model = build_model(case, record=rec, variant=over)
     t0 = float(model.tow.t[0])
+    dur = _run_duration(case, rec)
+    check_run(model, dur, float(case["run"]["record_dt_s"]), case.path)
     s0 = solve_static(model, t0)
     if case["model"]["drogue_after_contact"] == "from_log":
         model.end = log_inputs.probe_held_drogue(case, model, rec, s0.pos[-1])
-    res = simulate(model, t0 + _run_duration(case, rec), s0, record_dt=float(case["run"]["record_dt_s"]))
+    res = simulate(model, t0 + dur, s0, record_dt=float(case["run"]["record_dt_s"]))
     options = {"n_elements": model.n_elements, "reel": model.reel.mode,
                "drogue_lift_scale": model.drogue.lift_scale if model.drogue else None,
                "drogue_drag_scale": model.drogue.drag_scale if model.drogue else None,
@@ -222,6 +225,12 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
     """Run every case's runs (in parallel over processes) and gate them."""
     from tqdm import tqdm
     cases = [load_case(p) for p in case_paths]
+    seen: dict[str, str] = {}
+    for c in cases:
+        if c.id in seen:
+            # one id, one set of results and figures: the second would overwrite the first
+            raise InputError(f"{c.path}: case id '{c.id}' is also the id of {seen[c.id]}; ids must be unique")
+        seen[c.id] = c.path
     outcomes: dict[str, CaseOutcome] = {}
     jobs = []
     for case in cases:

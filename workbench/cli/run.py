@@ -5,20 +5,28 @@ from pathlib import Path
 
 import click
 
+from workbench.budget import MAX_DURATION_S
+from workbench.cli.options import FiniteRange
+from workbench.outputs import claim, safe_name
+
 
 @click.command()
 @click.argument("case_file", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
               show_default=True, help="Folder for the run's outputs.")
-@click.option("--duration", type=float, default=None, help="Simulated seconds (default: the case's).")
+@click.option("--duration", type=FiniteRange(0.0, MAX_DURATION_S, "s", lo_open=True), default=None,
+              help="Simulated seconds (default: the case's).")
+@click.option("--force", is_flag=True, help="Overwrite this case's results of an earlier run in --out.")
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:key=value,...]",
               help="Turn on an unmodelled effect, over the case's [effects.NAME] (repeatable).")
-def run(case_file: Path, out_dir: Path, duration: float | None, effects: tuple[str, ...]) -> None:
+def run(case_file: Path, out_dir: Path, duration: float | None, effects: tuple[str, ...], force: bool) -> None:
     """Simulate one case: static trail, then the run; write time series, summary and plot."""
     from workbench.cases import load_case
     from workbench.effects_case import parse_effect_options, with_effects
     from workbench.run import run_case, write_outputs
     case = with_effects(load_case(case_file), parse_effect_options(effects))
+    # the folder checked, unclaimed by another run and locked before any computing
+    click.get_current_context().with_resource(claim(out_dir, [safe_name(case.id)], force))
     outcome = run_case(case, duration)
     paths = write_outputs(outcome, out_dir)
     s = outcome.summary()

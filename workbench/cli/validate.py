@@ -8,9 +8,13 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.options import WORKERS
 from workbench.errors import EXIT_GATE_FAILED, InputError
+from workbench.outputs import claim
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
+# what a validate run leaves in --out: a folder holding one is another run's
+RESULTS = ("results.json", "report.html", "junit.xml")
 
 
 def case_paths(targets: tuple[str, ...]) -> list[Path]:
@@ -46,13 +50,14 @@ def _diagnosis_section(diagnosis_file: Path) -> dict:
 @click.argument("targets", nargs=-1, required=True)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
               show_default=True, help="Folder for report.html, report.pdf, results.json, junit.xml.")
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes (default: one per core).")
+@click.option("--workers", type=WORKERS, default=None, help="Processes (default: one per core).")
+@click.option("--force", is_flag=True, help="Overwrite the results of an earlier run in --out.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @click.option("--diagnosis", "diagnosis_file", type=click.Path(dir_okay=False, path_type=Path),
               default=Path("reports/diagnose/diagnosis.json"), show_default=True,
               help="A diagnosis.json to fold into the report as its own section (skipped if absent).")
 def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool,
-             diagnosis_file: Path) -> None:
+             diagnosis_file: Path, force: bool) -> None:
     """Run cases against their logs, check gates and findings: `validate all` or `validate CASE...`.
 
     Exit status: 0 every gate passes and every finding is as expected; 1 a gate
@@ -61,6 +66,8 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
     from workbench.report import finding_message, gate_message, write_report
     from workbench.validate import results_dict, validate_cases
     paths = case_paths(targets)
+    # the folder checked, unclaimed by another run and locked before any computing
+    click.get_current_context().with_resource(claim(out_dir, RESULTS, force))
     t0 = time.perf_counter()
     outcomes = validate_cases(paths, workers=workers, progress=not no_progress)
     results = results_dict(outcomes)
