@@ -30,7 +30,7 @@ from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
 from workbench import log_inputs
 from workbench.budget import check_run
-from workbench.cases import Case, build_model, case_log_paths, load_case
+from workbench.cases import Case, build_model, case_log_paths, check_log_agrees, load_case
 from workbench.diagnosis import EffectCalibrator, Setup, SimulationFailed
 from workbench.effects_case import with_effects
 from workbench.effects_compare import apply_comparison_effects
@@ -242,6 +242,10 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             from workbench.properties.measure import group_measurements, measure_records
             try:
                 groups = group_measurements(measure_records(paths))
+                other = sorted({g["hose"] for g in groups} - {case["hardware"]["hose"]})
+                if other:
+                    raise InputError(f"{case.path}: [hardware] hose '{case['hardware']['hose']}' differs from "
+                                     f"the logs' hose '{other[0]}'")
             except (LogError, InputError, ValueError) as exc:
                 outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc), error_code=EXIT_BAD_INPUT)
                 continue
@@ -250,6 +254,8 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             continue
         try:
             records = {p: read_record(p) for p in paths}
+            for r in records.values():
+                check_log_agrees(case, r)      # refused before any simulation, not gated
             tuned, calibrated, variants = {}, {}, []
             for v in variants_of(case):
                 for key in ("tune_drogue_lift_on", "calibrate_on"):
