@@ -125,8 +125,6 @@ def read_toml(p: Path, what: str) -> dict:
 
 
 def _num(path, section, key, raw, required=True):
-    if not isinstance(raw, dict):
-        raise InputError(f"{path}: [{section}] must be a table, got {raw!r}")
     if key not in raw:
         if required:
             raise InputError(f"{path}: [{section}] is missing '{key}'")
@@ -142,6 +140,38 @@ def _num(path, section, key, raw, required=True):
     return float(v)
 
 
+# every key a data sheet may hold, by section; the text ones are TEXT
+KEYS = {
+    "hose": ("length_ft", "outer_diameter_m", "inner_diameter_m", "dry_mass_per_m", "bench_section_length_m",
+             "description"),
+    "drogue": ("mass_kg", "diameter_m", "cd_wind_tunnel", "cl_wind_tunnel", "center_of_pressure_aft_of_hinge_m",
+               "hinge_free_play_deg", "description"),
+    "reel": ("drum_radius_empty_m", "drum_width_m", "drum_inertia_empty_kg_m2", "mode"),
+    "tanker": ("wing_span_m", "tow_point_aft_of_cg_m", "tow_point_below_wing_root_m", "tow_point_span_station_m",
+               "description"),
+    "fuel": ("density_kg_m3",),
+}
+TEXT = ("description", "mode")
+
+
+def _check_keys(p: Path, raw: dict) -> None:
+    """Unknown sections and keys (a typo would otherwise leave an optional value unset)."""
+    for section, value in raw.items():
+        if section not in KEYS:
+            raise InputError(f"{p}: unknown table [{section}] (known: {', '.join(KEYS)})")
+        if not isinstance(value, dict):
+            raise InputError(f"{p}: [{section}] must be a table of [{section}.ID] tables")
+        sheets = {section: value} if section == "fuel" else {f"{section}.{i}": v for i, v in value.items()}
+        for name, sheet in sheets.items():
+            if not isinstance(sheet, dict):
+                raise InputError(f"{p}: [{name}] must be a table, got {sheet!r}")
+            for key, v in sheet.items():
+                if key not in KEYS[section]:
+                    raise InputError(f"{p}: [{name}] unknown key '{key}' (known: {', '.join(KEYS[section])})")
+                if key in TEXT and not isinstance(v, str):
+                    raise InputError(f"{p}: [{name}] {key} must be a string, got {v!r}")
+
+
 _sheets = FileCache()
 
 
@@ -153,9 +183,7 @@ def load_hardware(path: str | Path | None = None) -> Hardware:
 
 def _read_hardware(p: Path) -> Hardware:
     raw = read_toml(p, "hardware data sheet file")
-    for section in ("hose", "drogue", "reel", "tanker", "fuel"):
-        if not isinstance(raw.get(section, {}), dict):
-            raise InputError(f"{p}: [{section}] must be a table of [{section}.ID] tables")
+    _check_keys(p, raw)
     hoses, drogues, reels, tankers = {}, {}, {}, {}
     for hid, h in raw.get("hose", {}).items():
         s = f"hose.{hid}"

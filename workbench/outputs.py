@@ -114,7 +114,3 @@ def claim(out: str | Path, results: Iterable[str] = (), force: bool = False,
     finally:
         lock.unlink(missing_ok=True)
 
-
-def inside(out: str | Path, name: str) -> Path:
-    """`out / safe_name(name)`: a file or folder of the run that stays inside `out`."""
-    return Path(out) / safe_name(name)

@@ -439,6 +439,28 @@ def test_hardware_field_attack(tmp_path, section, ident, key, value):
     refused(res, str(hw), key)
 
 
+HW_TEXT = HARDWARE.read_text()
+HW_STRUCTURE = {
+    "typo key": (HW_TEXT.replace("bench_section_length_m = 1.52", "bench_section_lenght_m = 1.52"),
+                 "unknown key 'bench_section_lenght_m'"),
+    "unknown table": (HW_TEXT + "\n[receiver.f18]\nmass_kg = 1\n", "unknown table [receiver]"),
+    "sheet not a table": (HW_TEXT + "\n[reel]\nodd = 3\n", "[reel.odd] must be a table"),
+    "section a number": ("hose = 3\n" + HW_TEXT.split("[hose.kc130_long]")[0], "[hose] must be a table"),
+    "missing key": (HW_TEXT.replace("mass_kg = 29.5\n", ""), "missing 'mass_kg'"),
+    "description a number": (HW_TEXT.replace('description = "wing-pod drogue"', "description = 3"),
+                             "description must be a string"),
+    "damaged": (HW_TEXT[:200], "not valid TOML"),
+}
+
+
+@pytest.mark.parametrize("name", HW_STRUCTURE)
+def test_hardware_file_structure_attack(tmp_path, name):
+    text, words = HW_STRUCTURE[name]
+    hw = tmp_path / "hardware.toml"
+    hw.write_text(text)
+    refused(invoke("properties", "build", "--hardware", hw, "--out", tmp_path / "o"), str(hw), words)
+
+
 def test_hardware_inner_diameter_over_outer(tmp_path):
     hw = tmp_path / "hardware.toml"
     hw.write_text(HARDWARE.read_text().replace("inner_diameter_m = 0.0508", "inner_diameter_m = 0.09", 1))
