@@ -66,10 +66,6 @@ class Field:
     required: bool = False
 
 
-def _positive(v):
-    return None if v > 0 else "must be positive"
-
-
 def _nonneg(v):
     return None if v >= 0 else "must not be negative"
 
