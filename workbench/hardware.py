@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from workbench.errors import InputError
-from workbench.provenance import FileCache
+from workbench.provenance import FileCache, read_text_limited
 
 FT = 0.3048
 DEFAULT_PATH = Path(__file__).resolve().parent.parent / "flighttest" / "logs" / "hardware.toml"
@@ -106,22 +106,11 @@ MAX_FILE_BYTES = 1_000_000   # a data sheet or case is a few kB of text: refuse 
 def read_toml(p: Path, what: str) -> dict:
     """The TOML file `p` (a `what`, named in messages), its size checked before
     it is read."""
+    text = read_text_limited(p, what, MAX_FILE_BYTES)
     try:
-        size = p.stat().st_size
-    except FileNotFoundError:
-        raise InputError(f"{p}: {what} not found") from None
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read the {what} ({exc.strerror or exc})") from None
-    if not p.is_file():
-        raise InputError(f"{p}: {what} is not a file")
-    if size > MAX_FILE_BYTES:
-        raise InputError(f"{p}: {what} is {size} bytes, over the {MAX_FILE_BYTES} byte limit of a TOML file")
-    try:
-        return tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{p}: not valid TOML ({' '.join(str(exc).split())})") from None
-    except OSError as exc:
-        raise InputError(f"{p}: cannot read the {what} ({exc.strerror or exc})") from None
 
 
 def _num(path, section, key, raw, required=True):

@@ -473,6 +473,12 @@ def test_hardware_file_over_the_size_limit(tmp_path):
     refused(invoke("properties", "build", "--hardware", hw, "--out", tmp_path / "o"), "byte limit")
 
 
+def _file(folder: Path, data: bytes) -> Path:
+    p = folder / "input.json"
+    p.write_bytes(data)
+    return p
+
+
 # (verb arguments, words): every verb's options out of range; {t} is the test's folder
 OPTIONS = {
     "run --duration 0": (lambda t: ["run", "CASE", "--duration", "0"], "--duration"),
@@ -521,6 +527,16 @@ OPTIONS = {
                                              "--out", t / "o"], "--element-counts"),
     "properties build --out and --update-committed": (
         lambda t: ["properties", "build", "--out", t / "o", "--update-committed"], "--update-committed"),
+    "properties lookup --file /dev/zero": (
+        lambda t: ["properties", "lookup", "fa18_buddy", "70", "0.5", "--file", "/dev/zero"], "is not a file"),
+    "properties lookup --file damaged": (
+        lambda t: ["properties", "lookup", "fa18_buddy", "70", "0.5", "--file", _file(t, b"{not json")],
+        "not valid JSON"),
+    "validate --diagnosis /dev/zero": (lambda t: ["validate", "CASE", "--diagnosis", "/dev/zero"], "is not a file"),
+    "validate --diagnosis damaged": (lambda t: ["validate", "CASE", "--diagnosis", _file(t, b"\xff\xfe")],
+                                     "not UTF-8"),
+    "validate --diagnosis not a diagnosis": (lambda t: ["validate", "CASE", "--diagnosis", _file(t, b"[1]")],
+                                             "not a diagnosis.json"),
     "logs inspect missing": (lambda t: ["logs", "inspect", t / "nope.mcap"], "nope.mcap"),
     "logs analyze missing": (lambda t: ["logs", "analyze", t / "nope.mcap"], "nope.mcap"),
 }

@@ -11,6 +11,7 @@ import click
 from workbench.cli.options import WORKERS
 from workbench.errors import EXIT_GATE_FAILED, InputError
 from workbench.outputs import claim
+from workbench.provenance import read_text_limited
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
 # what a validate run leaves in --out: a folder holding one is another run's
@@ -36,14 +37,14 @@ def case_paths(targets: tuple[str, ...]) -> list[Path]:
 def _diagnosis_section(diagnosis_file: Path) -> dict:
     from workbench.diagnosis.report import report_section
     try:
-        diag = json.loads(diagnosis_file.read_text())
+        diag = json.loads(read_text_limited(diagnosis_file, "diagnosis file"))
         # the blind selftest's figures, when `diagnose --selftest` wrote them beside it
         st = diagnosis_file.with_name("selftest.json")
         if st.exists():
-            diag["selftest"] = json.loads(st.read_text())
+            diag["selftest"] = json.loads(read_text_limited(st, "selftest file"))
         return report_section(diag)
-    except (ValueError, KeyError, TypeError) as exc:
-        raise InputError(f"{diagnosis_file}: not a diagnosis.json ({exc})") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:   # any JSON that is not one
+        raise InputError(f"{diagnosis_file}: not a diagnosis.json ({type(exc).__name__}: {exc})") from None
 
 
 @click.command()
@@ -68,12 +69,13 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
     paths = case_paths(targets)
     # the folder checked, unclaimed by another run and locked before any computing
     click.get_current_context().with_resource(claim(out_dir, RESULTS, force))
+    # a bad --diagnosis is refused before the runs, not after them
+    sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
     t0 = time.perf_counter()
     outcomes = validate_cases(paths, workers=workers, progress=not no_progress)
     results = results_dict(outcomes)
     wall = time.perf_counter() - t0
     results["wall_s"] = wall
-    sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
     files = write_report(outcomes, results, out_dir, wall, extra_sections=sections)
     cases = results["cases"]
     gates = [g for c in cases for g in c["gates"]]
