@@ -403,7 +403,7 @@ def build_model(case: Case, hardware: Hardware | None = None, record=None,
     from_log = cond["from_log"] or mod["reel"] == "from_log" or case["tow_motion"]["kind"] == "from_log"
     if from_log and record is None:
         raise InputError(f"{case.path}: takes its condition or motions from a log, but none was given "
-                         f"(list them in 'logs')")
+                         f"(run it with --log LOG, or validate it on its 'logs')")
     if record is not None:
         check_log_agrees(case, record)
     hs = _sheet(case, hw, "hose", h["hose"])

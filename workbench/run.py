@@ -1,6 +1,7 @@
 """`workbench run`: one case through the solver, results to a folder."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from dataclasses import dataclass
@@ -8,21 +9,39 @@ from pathlib import Path
 
 import numpy as np
 
+from flighttest import FlightRecord
 from solver.chain import DivergenceError
 from solver.integrate import simulate
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError, solve_static
 from workbench.budget import check_run
-from workbench.cases import DEFAULT_DURATION_S, Case, build_model
+from workbench.cases import DEFAULT_DURATION_S, Case, build_model, check_log_agrees
+from workbench.errors import InputError
 from workbench.outputs import safe_name
+
+# `run` writes here, apart from the validation report (reports/out): one folder per case id
+DEFAULT_OUT = Path("reports/run")
 
 
 @dataclass
 class RunOutcome:
+    """One run of a case: the result (`.to_pandas()`, `.plot()`), its wall time,
+    the static solve's time (NaN when it ran inside a log-driven run) and the
+    log it ran against, if any."""
+
     case: Case
     result: SimulationResult
     wall_s: float
     static_ms: float
+    record: FlightRecord | None = None
+
+    def to_pandas(self):
+        """The result's scalar channels, one row per record (`SimulationResult.to_pandas`)."""
+        return self.result.to_pandas()
+
+    def plot(self, kind: str = "summary", **kwargs):
+        """A matplotlib Figure of the result (`SimulationResult.plot`)."""
+        return self.result.plot(kind, **kwargs)
 
     def summary(self) -> dict:
         r = self.result
@@ -30,10 +49,11 @@ class RunOutcome:
         dur = float(r.t[-1] - r.t[0]) if len(r.t) > 1 else 0.0
         return {
             "case": self.case.id,
+            "log": self.record.info.test_id if self.record is not None else None,
             "simulated_s": dur,
             "wall_s": self.wall_s,
             "realtime_factor": dur / self.wall_s if self.wall_s > 0 else float("inf"),
-            "static_solve_ms": self.static_ms,
+            "static_solve_ms": self.static_ms if np.isfinite(self.static_ms) else None,  # None: inside the run
             "step_ms": r.dt * 1e3,
             "end_static_x_m": float(end[0, 0]),
             "end_static_y_m": float(end[0, 1]),
@@ -44,7 +64,40 @@ class RunOutcome:
         }
 
 
-def run_case(case: Case, duration_s: float | None = None) -> RunOutcome:
+def check_log_fits(case: Case, record: FlightRecord) -> None:
+    """InputError unless the log's test card is of the case's kind and names
+    the case's hardware (where both name it: `cases.check_log_agrees`)."""
+    info = record.info
+    if info.test_kind != case.kind:
+        raise InputError(f"{record.path}: test_kind '{info.test_kind}' is not the kind '{case.kind}' of "
+                         f"{case.path}")
+    check_log_agrees(case, record)
+
+
+def _run_against_log(case: Case, record: FlightRecord, duration_s: float | None) -> RunOutcome:
+    """The case on one log as `validate` runs it (its model, no variant):
+    condition, tow point, reel and probe from the log, through its span or
+    `duration_s` from its start."""
+    from workbench.validate import simulate_against
+    check_log_fits(case, record)
+    if duration_s is not None:
+        case = dataclasses.replace(case, tables={**case.tables, "run": {**case["run"], "duration_s": duration_s}})
+    t0 = time.perf_counter()
+    try:
+        res, _ = simulate_against(case, {"id": "case"}, record, {})
+    except (StaticSolveError, DivergenceError) as exc:
+        raise type(exc)(f"{case.path} on {record.path}: {exc}") from None
+    wall = time.perf_counter() - t0
+    res.provenance = {"case": case.path, "case_id": case.id, "structure": case["model.structure"]["source"],
+                      "log": str(record.path), "log_id": record.info.test_id}
+    return RunOutcome(case, res, wall, float("nan"), record)
+
+
+def run_case(case: Case, duration_s: float | None = None, record: FlightRecord | None = None) -> RunOutcome:
+    """Simulate `case` (its static trail, then `duration_s` or the case's run);
+    with `record`, a flight log of the case's kind and hardware, against it."""
+    if record is not None:
+        return _run_against_log(case, record, duration_s)
     model = build_model(case)
     dur = float(duration_s if duration_s is not None else case["run"]["duration_s"] or DEFAULT_DURATION_S)
     check_run(model, dur, float(case["run"]["record_dt_s"]), case.path)
@@ -62,6 +115,19 @@ def run_case(case: Case, duration_s: float | None = None) -> RunOutcome:
     return RunOutcome(case, res, wall, static_ms)
 
 
+def write_mcap(outcome: RunOutcome, path: Path) -> Path:
+    """The run in the log contract with Foxglove's 3-D scene (`simlog.result_scene`):
+    its log's test card and start time, or a test card made from the case."""
+    from flighttest.writer import write_record
+    from workbench.simlog import case_test_card, result_scene, result_to_record
+    if outcome.case.kind not in ("pitch_doublet", "trail", "engagement"):
+        raise InputError(f"--mcap {path}: a {outcome.case.kind} case is a bench run, not a flight record")
+    like = outcome.record if outcome.record is not None else case_test_card(outcome.case)
+    rec = result_to_record(outcome.result, like, note=f"workbench run {outcome.case.id}")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    return write_record(path, rec, scene=result_scene(outcome.result))
+
+
 def write_outputs(outcome: RunOutcome, out_dir: Path) -> list[Path]:
     """timeseries.csv (scalar channels), summary.json, summary.png."""
     d = Path(out_dir) / safe_name(outcome.case.id)
@@ -74,3 +140,30 @@ def write_outputs(outcome: RunOutcome, out_dir: Path) -> list[Path]:
     import matplotlib.pyplot as plt
     plt.close(fig)
     return paths
+
+
+def case_for_log(record: FlightRecord) -> Case:
+    """The case a log belongs to: the case in cases/ that lists it among its
+    logs (the same file, or one of the same name), else the diagnosis's
+    baseline template for the log's kind with its hardware."""
+    from workbench.cases import case_log_paths, load_case
+    from workbench.diagnosis.setup import TEMPLATES, baseline_case
+    log = Path(record.path)
+    for path in sorted(TEMPLATES.parent.glob("*.toml")):
+        case = load_case(path)
+        if any(p.resolve() == log.resolve() or p.name == log.name for p in case_log_paths(case)):
+            return case
+    return baseline_case(record)
+
+
+def write_comparison_mcap(outcome: RunOutcome, path: Path) -> Path:
+    """The log and its simulation on the log's time base in one MCAP: the log's
+    topics and scene under /log, the run's (`write_mcap`'s) under /sim, so
+    that Foxglove scrubs both together."""
+    from flighttest.writer import write_overlay
+    from workbench.simlog import result_scene, result_to_record
+    if outcome.record is None:
+        raise InputError(f"{outcome.case.path}: a comparison needs the log the case ran against")
+    sim = result_to_record(outcome.result, outcome.record, note=f"workbench compare, case {outcome.case.id}")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    return write_overlay(path, {"/log": (outcome.record, None), "/sim": (sim, result_scene(outcome.result))})

@@ -6,10 +6,12 @@ import numpy as np
 import pandas as pd
 
 from flighttest import FlightRecord, make_record
+from flighttest.writer import Scene
 from solver.result import SimulationResult
 
 VIDEO_DT = 0.1    # s, the chase-plane video rate
 ORS_DT = 1 / 30   # s
+SIM_HOSE_COLOR = (0.1, 0.35, 0.85, 1.0)   # the simulated hose, apart from the log's dark one
 
 
 def _decimate(t: np.ndarray, dt: float) -> np.ndarray:
@@ -51,3 +53,29 @@ def result_to_record(result: SimulationResult, like: FlightRecord, note: str = "
         if name in like.topics:
             topics[name] = like.topics[name]
     return make_record(raw, topics, like.start_time_ns)
+
+
+def result_scene(result: SimulationResult) -> Scene:
+    """What Foxglove draws of a run: its hose in 3-D (the contract's /video/hose
+    keeps x and z only, the side view a video sees, so a scene drawn from
+    the record would lie flat at y = 0), the drogue, and the forces on the
+    tow point and on the probe as arrows, at the tracker's rate."""
+    k = _decimate(result.t, ORS_DT)
+    t = result.t[k]
+    end = result.end_xyz[k]
+    return Scene(hose_t=t, hose=[result.hose_points(j) for j in k], drogue_t=t, drogue=end,
+                 arrows={"tow_force": (t, result.hose_xyz[k, 0, :], result.tow_force[k]),
+                         "probe_force": (t, end, result.probe_force[k])},
+                 note="simulated hose centre line, 3-D", hose_color=SIM_HOSE_COLOR)
+
+
+def case_test_card(case) -> FlightRecord:
+    """A record with only a test card, for a case run without a log: the case's
+    kind, hardware and condition in the units of a test card."""
+    cond = case["condition"]
+    raw = {"schema_version": "1", "test_id": case.id, "test_kind": case.kind}
+    raw.update({k: v for k, v in case["hardware"].items() if v})
+    raw.update({k: f"{cond[k]:g}" for k in ("altitude_ft", "airspeed_kcas", "oat_F", "hose_length_ft")
+                if cond.get(k) is not None})
+    raw["hose_fuel"] = cond["hose_fuel"]
+    return make_record(raw, {}, 0)

@@ -70,6 +70,24 @@ class CaseOutcome:
     def passed(self) -> bool:
         return self.error is None and all(g.passed for g in self.gates) and all(f.passed for f in self.findings)
 
+    def to_pandas(self):
+        """One row per run: case, variant, log, held_out, wall_s and its scalar metrics."""
+        import pandas as pd
+        rows = [{"case": r.case_id, "variant": r.variant, "log": r.log_id, "held_out": r.held_out,
+                 "wall_s": r.wall_s, **{k: v for k, v in r.metrics.items() if isinstance(v, (int, float))}}
+                for r in self.runs]
+        return pd.DataFrame(rows)
+
+    def plot(self, metric: str | None = None):
+        """A Figure of `metric` (default: the first gate's) over the runs, with its gates' thresholds."""
+        from workbench.result_plots import runs_figure
+        frame = self.to_pandas()
+        if metric is None:
+            numeric = [c for c in frame.columns if c not in ("case", "variant", "log", "held_out", "wall_s")]
+            metric = self.gates[0].metric if self.gates else (numeric[0] if numeric else "wall_s")
+        gates = [(f"{g.kind} {g.threshold:g} ({g.variant})", g.threshold) for g in self.gates if g.metric == metric]
+        return runs_figure(frame, metric, gates, self.case.id)
+
 
 def variants_of(case: Case) -> list[dict]:
     v = case["variants"]

@@ -33,44 +33,64 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2], edges[1::2]))
 
 
-def _topic_line(topic: str, df) -> str:
+def _topic_stats(topic: str, df) -> dict:
+    """Messages, rate, span, gaps and dropouts of one topic (None where they do not apply)."""
     if topic == "/video/hose":
-        frames = np.unique(df["t_s"].to_numpy(float))
+        t = np.unique(df["t_s"].to_numpy(float))
         counts = df.groupby("t_s").size()
-        t = frames
-        n = len(frames)
-        extra = (f"points/frame {int(counts.min()) if len(counts) else 0}-"
-                 f"{int(counts.max()) if len(counts) else 0}")
     else:
         t = df.index.to_numpy(float)
-        n = len(df)
-        extra = ""
+    n = len(t)
+    out: dict = {"messages": n}
     if n == 0:
-        return f"  {topic:<20} {0:>7} msgs  (empty)"
+        return out
     dur = float(t[-1] - t[0]) if n > 1 else 0.0
-    rate = (n - 1) / dur if dur > 0 else float("nan")
-    n_gaps, longest = _gaps(t)
-    parts = [f"  {topic:<20} {n:>7} msgs", f"{rate:8.2f} Hz" if math.isfinite(rate) else
-             f"{'-':>8}   ", f"{dur:8.3f} s", f"t {t[0]:.3f}-{t[-1]:.3f} s"]
+    out.update(rate_hz=(n - 1) / dur if dur > 0 else None, duration_s=dur, t_first_s=float(t[0]),
+               t_last_s=float(t[-1]))
     if topic != "/probe/events":
-        parts.append(f"gaps {n_gaps}" + (f" (longest {longest:.3f} s)" if n_gaps else ""))
+        n_gaps, longest = _gaps(t)
+        out.update(gaps=n_gaps, longest_gap_s=longest if n_gaps else None)
     if "valid" in df:
         bad = ~df["valid"].to_numpy(bool)
         runs = _runs(bad)
-        if runs:
-            tt = df.index.to_numpy(float)
-            dt = float(np.median(np.diff(tt))) if len(tt) > 1 else 0.0
-            # A lost track lasts as many sample periods as it has invalid samples.
-            longest_drop = max(b - a for a, b in runs) * dt
-            parts.append(f"dropouts {int(bad.sum())} ({100 * bad.mean():.1f} %) in {len(runs)} "
-                         f"runs, longest {longest_drop:.3f} s")
-        else:
-            parts.append("dropouts 0")
+        dt = float(np.median(np.diff(t))) if n > 1 else 0.0
+        # A lost track lasts as many sample periods as it has invalid samples.
+        out["dropouts"] = {"samples": int(bad.sum()), "share": float(bad.mean()), "runs": len(runs),
+                           "longest_s": max(b - a for a, b in runs) * dt if runs else 0.0}
     if topic == "/probe/events":
-        parts.append(", ".join(f"{e} at {t_:.3f} s" for t_, e in zip(df.index, df["event"])))
-    if extra:
-        parts.append(extra)
+        out["events"] = [{"t_s": float(t_), "event": str(e)} for t_, e in zip(df.index, df["event"])]
+    if topic == "/video/hose":
+        out["points_per_frame"] = [int(counts.min()), int(counts.max())]
+    return out
+
+
+def _topic_line(topic: str, st: dict) -> str:
+    n = st["messages"]
+    if n == 0:
+        return f"  {topic:<20} {0:>7} msgs  (empty)"
+    rate = st["rate_hz"]
+    parts = [f"  {topic:<20} {n:>7} msgs", f"{rate:8.2f} Hz" if rate is not None else f"{'-':>8}   ",
+             f"{st['duration_s']:8.3f} s", f"t {st['t_first_s']:.3f}-{st['t_last_s']:.3f} s"]
+    if "gaps" in st:
+        parts.append(f"gaps {st['gaps']}" + (f" (longest {st['longest_gap_s']:.3f} s)" if st["gaps"] else ""))
+    if "dropouts" in st:
+        d = st["dropouts"]
+        parts.append(f"dropouts {d['samples']} ({100 * d['share']:.1f} %) in {d['runs']} runs, longest "
+                     f"{d['longest_s']:.3f} s" if d["runs"] else "dropouts 0")
+    if "events" in st:
+        parts.append(", ".join(f"{e['event']} at {e['t_s']:.3f} s" for e in st["events"]))
+    if "points_per_frame" in st:
+        parts.append("points/frame {}-{}".format(*st["points_per_frame"]))
     return "  ".join(parts)
+
+
+def inspect_json(path: str, record: FlightRecord) -> dict:
+    """What `inspect_text` prints, as data: test card, topics' statistics, notes."""
+    info = record.info
+    return {"test_id": info.test_id, "test_kind": info.test_kind, "hose": info.hose,
+            "summary": record.had_summary, "metadata": dict(info.raw),
+            "topics": {topic: _topic_stats(topic, record.topics[topic]) for topic in sorted(record.topics)},
+            "notes": list(record.warnings)}
 
 
 def inspect_text(path: str, record: FlightRecord) -> str:
@@ -82,7 +102,7 @@ def inspect_text(path: str, record: FlightRecord) -> str:
         lines.append(f"    {key} = {value}")
     lines.append("  topics:")
     for topic in sorted(record.topics):
-        lines.append("  " + _topic_line(topic, record.topics[topic]))
+        lines.append("  " + _topic_line(topic, _topic_stats(topic, record.topics[topic])))
     for w in record.warnings:
         lines.append(f"  note: {w}")
     return "\n".join(lines)
@@ -95,12 +115,17 @@ def logs() -> None:
 
 @logs.command("inspect")
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True,
+              help="One JSON object per file, keyed by the file name.")
 @click.option("--salvage", is_flag=True,
               help="Read the complete records of a file cut inside a record.")
-def inspect_cmd(files: tuple[str, ...], salvage: bool) -> None:
+def inspect_cmd(files: tuple[str, ...], as_json: bool, salvage: bool) -> None:
     """Summarise test card, topics, rates, gaps and dropouts of each FILE."""
     for i, path in enumerate(files):
         record = _read(path, salvage)
+        if as_json:
+            click.echo(json.dumps({Path(path).name: inspect_json(path, record)}, allow_nan=False))
+            continue
         if i:
             click.echo("")
         click.echo(inspect_text(path, record))

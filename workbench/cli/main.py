@@ -9,6 +9,7 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.compare import compare
 from workbench.cli.diagnose import diagnose
 from workbench.cli.logs import logs
 from workbench.cli.properties import properties
@@ -81,7 +82,7 @@ def cli() -> None:
     pass
 
 
-for _command in (run, validate, logs, properties, diagnose):
+for _command in (run, compare, validate, logs, properties, diagnose):
     cli.add_command(_command)
 
 

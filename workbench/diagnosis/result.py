@@ -148,6 +148,11 @@ class Diagnosis:
         frames = [d.to_pandas() for d in self.families.values()]
         return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
+    def plot(self):
+        """A Figure per family: each candidate's held-out gap against the baseline gap and noise floor."""
+        from workbench.result_plots import diagnosis_figure
+        return diagnosis_figure(self.families)
+
     def to_json(self) -> dict:
         """The diagnosis.json content (keys as the file has always had them)."""
         fams = {k: d.to_json() for k, d in self.families.items()}
