@@ -86,6 +86,26 @@ def _lock(out: Path, option: str) -> Path:
     raise InputError(f"{option} {out}: cannot take the lock {lock}")
 
 
+def _writable_folder(out: Path, option: str) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        raise InputError(f"{option} {out}: cannot write there ({exc.strerror or exc})") from None
+
+
+def writable_file(path: str | Path | None, option: str) -> None:
+    """Refuse, before any computing, a file `option` names (--mcap, --animate)
+    that cannot be written: its folder unwritable, or the path a folder."""
+    if path is None:
+        return
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{option} {p}: is a folder")
+    _writable_folder(p.parent, option)
+
+
 @contextlib.contextmanager
 def claim(out: str | Path, results: Iterable[str] = (), force: bool = False,
           option: str = "--out") -> Iterator[Path]:
@@ -97,12 +117,7 @@ def claim(out: str | Path, results: Iterable[str] = (), force: bool = False,
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"{option} {out}: exists and is not a folder")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=out):
-            pass
-    except OSError as exc:
-        raise InputError(f"{option} {out}: cannot write there ({exc.strerror or exc})") from None
+    _writable_folder(out, option)
     lock = _lock(out, option)
     try:
         if not force:

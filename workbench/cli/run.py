@@ -7,7 +7,7 @@ import click
 
 from workbench.budget import MAX_DURATION_S
 from workbench.cli.options import FiniteRange
-from workbench.outputs import claim, safe_name
+from workbench.outputs import claim, safe_name, writable_file
 from workbench.run import DEFAULT_OUT
 
 
@@ -39,6 +39,8 @@ def run(case_file: Path, log_file: Path | None, out_dir: Path, duration: float |
     record = read_record(log_file) if log_file is not None else None
     # the folder checked, unclaimed by another run and locked before any computing
     click.get_current_context().with_resource(claim(out_dir, [safe_name(case.id)], force))
+    writable_file(mcap_file, "--mcap")
+    writable_file(gif_file, "--animate")
     outcome = run_case(case, duration, record)
     paths = write_outputs(outcome, out_dir)
     if mcap_file is not None:
