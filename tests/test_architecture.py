@@ -185,11 +185,15 @@ def test_every_numeric_option_declares_a_range():
 @pytest.mark.parametrize("cmd,param", NUMERIC, ids=[f"{c} {p.name}" for c, p in NUMERIC])
 def test_numeric_option_rejects_out_of_range_with_exit_2(cmd, param):
     for bad in _bad_values(param.type):
-        args = cmd.split()
+        args, positional = cmd.split(), []
         for key, value in VALID[cmd].items():
             is_this = key == param.name or key in param.opts
             value = bad if is_this else value
-            args += [key, value] if key.startswith("--") else [value]
+            if key.startswith("--"):
+                args += [key, value]
+            else:
+                positional.append(value)
+        args += ["--", *positional]     # a negative bad value is an argument, not an option
         res = CliRunner().invoke(cli, args)
         assert res.exit_code == EXIT_BAD_INPUT, (args, res.output)
         label = param.opts[0] if param.opts[0].startswith("--") else param.human_readable_name

@@ -32,13 +32,13 @@ Layout (every table but [hardware] and [condition] is optional):
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Optional
 
 import numpy as np
 
+from flighttest.schema import METADATA_RANGES, Range
 from solver.atmosphere import isa, kcas_to_tas
 from solver.drogue import DrogueProperties
 from solver.effects import EFFECTS
@@ -47,10 +47,12 @@ from solver.model import Model, Trajectory
 from solver.reel import ReelProperties
 from solver.units import FT, K_to_degF, degF_to_K
 from solver.wind import freestream
+from workbench.budget import MAX_DURATION_S
 from workbench.config import defaults
 from workbench.errors import InputError
 from workbench.gates import METRICS
-from workbench.hardware import Hardware, load_hardware
+from workbench.hardware import Hardware, load_hardware, read_toml
+from workbench.outputs import is_safe_id
 
 KINDS = ("ringdown_bending", "ringdown_axial", "pitch_doublet", "trail", "engagement")
 ARRAY_TABLES = ("variants", "gates", "findings")
@@ -62,10 +64,6 @@ class Field:
     default: Any = None
     check: Optional[Callable[[Any], Optional[str]]] = None   # returns a complaint or None
     required: bool = False
-
-
-def _positive(v):
-    return None if v > 0 else "must be positive"
 
 
 def _nonneg(v):
@@ -80,10 +78,43 @@ def _int_range(lo, hi):
     return lambda v: None if lo <= v <= hi else f"must lie in {lo}..{hi}"
 
 
+def _within(r: Range):
+    return lambda v: None if v in r else f"must lie in {r}"
+
+
+def _range(lo, hi, unit, why, lo_open=False):
+    return _within(Range(lo, hi, unit, why, lo_open))
+
+
+def _still_or(r: Range):
+    """0 (still air: a bench case) or a value in `r`."""
+    return lambda v: None if v == 0 or v in r else f"must be 0 (still air) or lie in {r}"
+
+
+# The test card's ranges (flighttest.schema) hold for the same keys of a case:
+# a case describes a flight the logs could have recorded.
+_CARD = METADATA_RANGES
+# The drogue's lift and drag factors: the registry's physical range of the
+# drogue_lift / drogue_drag effects' scale (solver.effects), so [model],
+# [[variants]] and [effects.*] agree on what is physical.
+_LIFT = EFFECTS["drogue_lift"].params["scale"]
+_DRAG = EFFECTS["drogue_drag"].params["scale"]
+_LIFT_RANGE = Range(_LIFT.lo, _LIFT.hi, "", "registry range of drogue_lift scale")
+_DRAG_RANGE = Range(_DRAG.lo, _DRAG.hi, "", "registry range of drogue_drag scale")
+# An element shorter than this (about the hose diameter) is no longer a slender
+# rod, and its stable step (cost ~ 1/l^2) makes a run of minutes out of seconds.
+MIN_ELEMENT_M = 0.05
+
+
+def _id(v):
+    return None if is_safe_id(v) else ("must be 1-100 letters, digits, '.', '_' or '-', not starting with '.' "
+                                        "(it names output files)")
+
+
 NUM = (int, float)
 SCHEMA = {
     "": {
-        "id": Field(str, required=True),
+        "id": Field(str, required=True, check=_id),
         "title": Field(str, ""),
         "kind": Field(str, required=True, check=_one_of(*KINDS)),
         "description": Field(str, ""),
@@ -96,49 +127,51 @@ SCHEMA = {
         "tanker": Field(str),
     },
     "condition": {
-        "altitude_ft": Field(NUM, 0.0, lambda v: None if -1000 <= v <= 60000 else "must lie in -1000..60000"),
-        "airspeed_kcas": Field(NUM, 0.0, _nonneg),
+        "altitude_ft": Field(NUM, 0.0, _within(_CARD["altitude_ft"])),
+        "airspeed_kcas": Field(NUM, 0.0, _still_or(_CARD["airspeed_kcas"])),
         "hose_fuel": Field(str, "full", _one_of("full", "empty")),
-        "hose_length_ft": Field(NUM, None, _positive),
-        "oat_F": Field(NUM, None, lambda v: None if -130 <= v <= 150 else "must lie in -130..150"),
-        "tanker_gross_weight_lb": Field(NUM, None, _positive),
+        "hose_length_ft": Field(NUM, None, _within(_CARD["hose_length_ft"])),
+        "oat_F": Field(NUM, None, _within(_CARD["oat_F"])),
+        "tanker_gross_weight_lb": Field(NUM, None, _within(_CARD["tanker_gross_weight_lb"])),
         "from_log": Field(bool, False),
     },
     "model": {
         "n_elements": Field(int, 40, _int_range(4, 200)),
-        "drogue_lift_scale": Field(NUM, 1.0, _nonneg),
-        "drogue_drag_scale": Field(NUM, 1.0, _positive),
+        "drogue_lift_scale": Field(NUM, 1.0, _within(_LIFT_RANGE)),
+        "drogue_drag_scale": Field(NUM, 1.0, _within(_DRAG_RANGE)),
         "reel": Field(str, "locked", _one_of("locked", "drum", "from_log")),
         "drogue_after_contact": Field(str, "free", _one_of("free", "from_log")),
         # probe-drogue coupling: an assumed compliance (probe mast and the coupling's
         # latch rollers), not a measured one; 0 holds the drogue rigidly on the probe
-        "probe_coupling_N_m": Field(NUM, 2.0e5, _nonneg),
-        "probe_coupling_damping_ratio": Field(NUM, 0.7, _nonneg),
+        "probe_coupling_N_m": Field(NUM, 2.0e5, _range(0.0, 1e8, "N/m", "0 rigid .. 100 MN/m, far stiffer "
+                                                                        "than any probe mast")),
+        "probe_coupling_damping_ratio": Field(NUM, 0.7, _range(0.0, 2.0, "", "undamped .. twice critical")),
         "reel_torque_law": Field(str, "constant_tension", _one_of("constant_tension", "constant_torque")),
-        "reel_torque_N_m": Field(NUM, None, _positive),
-        "hinge_damping_N_m_s": Field(NUM, 0.0, _nonneg),
-        "hinge_friction_N_m": Field(NUM, 0.0, _nonneg),
+        "reel_torque_N_m": Field(NUM, None, _range(0.0, 1e5, "N m", "a reel drive's torque", lo_open=True)),
+        "hinge_damping_N_m_s": Field(NUM, 0.0, _range(0.0, 1e4, "N m s", "the drogue hinge: beyond this "
+                                                                         "it is a clamp")),
+        "hinge_friction_N_m": Field(NUM, 0.0, _range(0.0, 1e4, "N m", "the drogue hinge's friction moment")),
     },
     "model.structure": {
         "source": Field(str, "table"),
-        "EI_N_m2": Field(NUM, None, _positive),
-        "EA_N": Field(NUM, None, _positive),
-        "bending_damping_N_m2_s": Field(NUM, 0.0, _nonneg),
-        "axial_damping_N_s": Field(NUM, 0.0, _nonneg),
-        "temperature_F": Field(NUM, None),
+        "EI_N_m2": Field(NUM, None, _range(0.1, 1e5, "N m^2", "refuelling hoses: 10-1000 N m^2")),
+        "EA_N": Field(NUM, None, _range(1e3, 1e9, "N", "refuelling hoses: about 1e6-1e7 N")),
+        "bending_damping_N_m2_s": Field(NUM, 0.0, _range(0.0, 1e3, "N m^2 s", "the bench tables: below 10")),
+        "axial_damping_N_s": Field(NUM, 0.0, _range(0.0, 1e6, "N s", "the bench tables: below 1e4")),
+        "temperature_F": Field(NUM, None, _within(_CARD["temperature_F"])),
         "allow_extrapolation": Field(bool, False),
     },
     "tow_motion": {
         "kind": Field(str, "none", _one_of("none", "sine_doublet", "from_log")),
-        "amplitude_m": Field(NUM, 0.0, _nonneg),
-        "period_s": Field(NUM, 2.0, _positive),
-        "start_s": Field(NUM, 1.0, _nonneg),
+        "amplitude_m": Field(NUM, 0.0, _range(0.0, 10.0, "m", "a tow-point excursion a tanker flies")),
+        "period_s": Field(NUM, 2.0, _range(0.1, 100.0, "s", "a pilot's doublet")),
+        "start_s": Field(NUM, 1.0, _range(0.0, 3600.0, "s", "inside the longest run")),
     },
     "variants": {
-        "id": Field(str, required=True),
+        "id": Field(str, required=True, check=_id),
         "label": Field(str, ""),
-        "drogue_lift_scale": Field(NUM, None, _nonneg),
-        "drogue_drag_scale": Field(NUM, None, _positive),
+        "drogue_lift_scale": Field(NUM, None, _within(_LIFT_RANGE)),
+        "drogue_drag_scale": Field(NUM, None, _within(_DRAG_RANGE)),
         "reel": Field(str, None, _one_of("locked", "drum", "from_log")),
         "tune_drogue_lift_on": Field(list, []),
         "calibrate": Field(list, []),
@@ -166,8 +199,10 @@ SCHEMA = {
         "band_source": Field(str, required=True),
     },
     "run": {
-        "duration_s": Field(NUM, None, _positive),
-        "record_dt_s": Field(NUM, 0.01, _positive),
+        "duration_s": Field(NUM, None, _range(0.0, MAX_DURATION_S, "s", "an hour of flight", lo_open=True)),
+        # the lower bound is the finest stable step of the models the schema allows;
+        # `workbench.budget` holds each run to its own model's step
+        "record_dt_s": Field(NUM, 0.01, _range(1e-4, 10.0, "s", "the solver's step .. a 0.1 Hz record")),
     },
 }
 
@@ -230,12 +265,7 @@ def _check_table(path: str, name: str, raw: dict) -> dict:
 
 def load_case(path: str | Path) -> Case:
     p = Path(path)
-    try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{p}: case file not found") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{p}: not valid TOML ({exc})") from None
+    raw = read_toml(p, "case file")
     tables = {}
     arrays = {k: v for k, v in raw.items() if k in ARRAY_TABLES}
     for k, v in arrays.items():
@@ -294,8 +324,43 @@ def load_case(path: str | Path) -> Case:
     if st["source"] != "table" and (st["EI_N_m2"] is None or st["EA_N"] is None):
         raise InputError(f"{p}: [model.structure] source '{st['source']}' is not 'table', so EI_N_m2 and "
                          f"EA_N must be given")
+    _check_condition(p, tables)
     top = tables[""]
     return Case(str(p), top["id"], top["kind"], top["title"], tables)
+
+
+FLIGHT_KINDS = ("pitch_doublet", "trail", "engagement")
+
+
+def _check_condition(p: Path, tables: dict) -> None:
+    """What no single key can say: a flight case not taken from a log flies at a
+    subsonic airspeed it states."""
+    cond = tables["condition"]
+    if tables[""]["kind"] in FLIGHT_KINDS and not cond["from_log"] and cond["airspeed_kcas"] == 0:
+        raise InputError(f"{p}: [condition] airspeed_kcas must be given for a {tables['']['kind']} case "
+                         f"not taken from a log (must lie in {_CARD['airspeed_kcas']})")
+
+
+def check_element_length(case: Case, length_m: float, n_elements: int) -> None:
+    """Refuse elements shorter than MIN_ELEMENT_M (not slender; a minutes-long
+    run) for the hose length the model trails."""
+    el = length_m / n_elements
+    if el < MIN_ELEMENT_M:
+        raise InputError(f"{case.path}: [model] n_elements = {n_elements} on a {length_m:.3g} m hose gives "
+                         f"{el:.3g} m elements; must be >= {MIN_ELEMENT_M} m (n_elements <= "
+                         f"{int(length_m / MIN_ELEMENT_M)})")
+
+
+def check_log_agrees(case: Case, record) -> None:
+    """The case's hose, drogue, reel and tanker are the log's (its test card): a case
+    run against another hardware's log is refused, not gated."""
+    info = record.info
+    h = case["hardware"]
+    for key, logged in (("hose", info.hose), ("drogue", info.drogue), ("reel", info.reel),
+                          ("tanker", info.tanker)):
+        if h.get(key) and logged and h[key] != logged:
+            raise InputError(f"{case.path}: [hardware] {key} '{h[key]}' differs from the log's {key} "
+                             f"'{logged}' (test {info.test_id})")
 
 
 def _sheet(case: Case, hw: Hardware, kind: str, ident: str):
@@ -339,6 +404,8 @@ def build_model(case: Case, hardware: Hardware | None = None, record=None,
     if from_log and record is None:
         raise InputError(f"{case.path}: takes its condition or motions from a log, but none was given "
                          f"(run it with --log LOG, or validate it on its 'logs')")
+    if record is not None:
+        check_log_agrees(case, record)
     hs = _sheet(case, hw, "hose", h["hose"])
     if cond["from_log"]:
         from workbench import log_inputs
@@ -390,6 +457,7 @@ def build_model(case: Case, hardware: Hardware | None = None, record=None,
         tow = log_inputs.tow_trajectory(record)
     else:
         tow = _tow_motion(case)
+    check_element_length(case, length, int(mod["n_elements"]))
     model = Model(hose, int(mod["n_elements"]), density, nu, wind=freestream(tas),
                   drogue=drogue, reel=reel, tow=tow)
     from workbench.effects_case import apply_case_effects

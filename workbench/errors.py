@@ -15,6 +15,7 @@ EXIT_GATE_FAILED = 1     # validate: a gate failed or a finding changed
 EXIT_BAD_INPUT = 2       # a case, CLI option, log or hardware file is wrong (click's usage errors too)
 EXIT_NUMERICAL = 3       # the solver failed: a divergence or a static solve that did not converge
 EXIT_INTERNAL = 4        # a defect: an unexpected exception (traceback written to a log file)
+EXIT_INTERRUPTED = 130   # Ctrl-C (128 + SIGINT, as a shell reports it)
 
 
 class InputError(ValueError):

@@ -10,12 +10,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from flighttest import read_record  # noqa: E402
+from workbench.outputs import safe_name  # noqa: E402
 from flighttest.compare import engagement_moments  # noqa: E402
 
 COLORS = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
 
 
-def _save(fig, path: Path) -> Path:
+def _save(fig, out_dir: Path, name: str) -> Path:
+    # ids from case and log files name the figure: kept inside its folder
+    path = Path(out_dir) / safe_name(name)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -59,7 +62,7 @@ def doublet_figures(outcome, out_dir: Path) -> list[Path]:
         ax.set_ylabel("drogue z (m)")
         ax.set_title(f"{log_id}: drogue response to the pitch doublet")
         ax.legend(fontsize=7, loc="lower right")
-        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-drogue-z.png"))
+        paths.append(_save(fig, out_dir, f"{outcome.case.id}-{log_id}-drogue-z.png"))
     return paths
 
 
@@ -86,7 +89,7 @@ def trail_figures(outcome, out_dir: Path) -> list[Path]:
         ax.set_ylabel("z (m)")
         ax.set_title(f"{log_id}: steady trail")
         ax.legend(fontsize=7, loc="lower left")
-        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-trail.png"))
+        paths.append(_save(fig, out_dir, f"{outcome.case.id}-{log_id}-trail.png"))
     return paths
 
 
@@ -141,7 +144,7 @@ def engagement_figures(outcome, out_dir: Path) -> list[Path]:
         ax.set_xlabel("t (s)")
         ax.set_ylabel("probe load (kN)")
         ax.set_title("loads on the probe")
-        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-engagement.png"))
+        paths.append(_save(fig, out_dir, f"{outcome.case.id}-{log_id}-engagement.png"))
 
         hose = rec.topic("/video/hose")
         times = np.unique(hose["t_s"].to_numpy(float))
@@ -158,7 +161,7 @@ def engagement_figures(outcome, out_dir: Path) -> list[Path]:
             ax.set_title(f"{name.replace('_', ' ')} (t={tf:.1f} s)", fontsize=9)
         axes[0, 0].legend(fontsize=7)
         fig.suptitle(f"{log_id}: hose progression (Fig. 19)")
-        paths.append(_save(fig, out_dir / f"{outcome.case.id}-{log_id}-progression.png"))
+        paths.append(_save(fig, out_dir, f"{outcome.case.id}-{log_id}-progression.png"))
     return paths
 
 
@@ -174,7 +177,7 @@ def ringdown_figures(outcome, out_dir: Path) -> list[Path]:
     for name, fn in (("fig6-measured", pr.figure_measured), ("fig7-constants", pr.figure_element_constants),
                      ("constants-vs-length", pr.figure_element_length)):
         fig = fn(doc, hose)
-        path = out_dir / f"{outcome.case.id}-{name}.png"
+        path = out_dir / safe_name(f"{outcome.case.id}-{name}.png")
         fig.tight_layout()
         fig.savefig(path, dpi=80)
         paths.append(path)
@@ -193,7 +196,7 @@ def ringdown_figures(outcome, out_dir: Path) -> list[Path]:
             ax.set_xlabel("hose temperature (F)")
             ax.legend(fontsize=7)
         fig.suptitle(f"{hose}: verification (Fig. 9)")
-        paths.append(_save(fig, out_dir / f"{outcome.case.id}-fig9.png"))
+        paths.append(_save(fig, out_dir, f"{outcome.case.id}-fig9.png"))
     return paths
 
 

@@ -27,6 +27,30 @@ def code_version() -> str:
         return "unknown"
 
 
+# A case, data sheet, property table or diagnosis is at most a few hundred kB of
+# text; anything over this is refused before it is read (not a 2 GB read, not
+# an endless /dev/zero).
+MAX_TEXT_BYTES = 50_000_000
+
+
+def read_text_limited(path: str | Path, what: str, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The UTF-8 text of `path` (a `what`, named in messages); InputError
+    unread when it is missing, not a regular file or over `max_bytes`."""
+    from workbench.errors import InputError
+    p = Path(path)
+    try:
+        if not p.is_file():
+            raise InputError(f"{p}: {what} " + ("is not a file" if p.exists() else "not found"))
+        size = p.stat().st_size
+        if size > max_bytes:
+            raise InputError(f"{p}: {what} is {size} bytes, over the {max_bytes} byte limit")
+        return p.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{p}: {what} is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise InputError(f"{p}: cannot read the {what} ({exc.strerror or exc})") from None
+
+
 def file_sha256(path: str | Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 

@@ -11,13 +11,13 @@ from flighttest import FlightRecord
 from solver.chain import DivergenceError
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError
-from workbench.cases import Case
+from workbench.cases import Case, check_log_agrees
 from workbench.errors import InputError
+from workbench.outputs import safe_name
 from workbench.simulate import simulate_case
 
 # `run` writes here, apart from the validation report (reports/out): one folder per case id
 DEFAULT_OUT = Path("reports/run")
-HARDWARE_KEYS = ("hose", "drogue", "reel", "tanker")
 
 
 @dataclass
@@ -63,16 +63,12 @@ class RunOutcome:
 
 def check_log_fits(case: Case, record: FlightRecord) -> None:
     """InputError unless the log's test card is of the case's kind and names
-    the case's hardware (where both name it)."""
+    the case's hardware (where both name it: `cases.check_log_agrees`)."""
     info = record.info
     if info.test_kind != case.kind:
         raise InputError(f"{record.path}: test_kind '{info.test_kind}' is not the kind '{case.kind}' of "
                          f"{case.path}")
-    for key in HARDWARE_KEYS:
-        want, got = case["hardware"].get(key), info.raw.get(key)
-        if want and got and want != got:
-            raise InputError(f"{record.path}: test card {key} '{got}' is not the [hardware] {key} '{want}' "
-                             f"of {case.path}")
+    check_log_agrees(case, record)
 
 
 def run_case(case: Case, duration_s: float | None = None, record: FlightRecord | None = None) -> RunOutcome:
@@ -110,7 +106,7 @@ def write_mcap(outcome: RunOutcome, path: Path) -> Path:
 
 def write_outputs(outcome: RunOutcome, out_dir: Path) -> list[Path]:
     """timeseries.csv (scalar channels), summary.json, summary.png."""
-    d = Path(out_dir) / outcome.case.id
+    d = Path(out_dir) / safe_name(outcome.case.id)
     d.mkdir(parents=True, exist_ok=True)
     paths = [d / "timeseries.csv", d / "summary.json", d / "summary.png"]
     outcome.result.to_pandas().to_csv(paths[0])

@@ -19,6 +19,7 @@ from solver.result import SimulationResult
 from solver.state import State
 from solver.statics import solve_static
 from workbench import log_inputs
+from workbench.budget import check_run
 from workbench.cases import Case, build_model
 from workbench.config import defaults
 from workbench.effects_case import with_effects
@@ -100,19 +101,22 @@ def simulate_case(case: Case, record=None, variant: Mapping | None = None, effec
     case = with_effects(case, dict(effects or {}))
     model = build_model(case, hardware=hardware, record=record, variant=dict(variant or {}))
     t0 = float(model.tow.t[0])
-    clock = time.perf_counter()
-    s0 = solve_static(model, t0)
-    static_s = time.perf_counter() - clock
     if until is not None:
         t_end = float(until)
     else:
         t_end = t0 + (run_duration(case, record) if duration is None else float(duration))
+    dt = float(case["run"]["record_dt_s"]) if record_dt is None else float(record_dt)
+    if t_end != t0:
+        # refused before any computing when its output or run time would pass the limits
+        check_run(model, t_end - t0, dt, case.path)
+    clock = time.perf_counter()
+    s0 = solve_static(model, t0)
+    static_s = time.perf_counter() - clock
     if t_end == t0:
         return Simulation(case, model, s0, None, model_options(case, model), static_s, 0.0)
     if case["model"]["drogue_after_contact"] == "from_log" and record is not None:
         # the held path starts at this model's own steady drogue, known only now
         model = dataclasses.replace(model, end=log_inputs.probe_held_drogue(case, model, record, s0.pos[-1]))
-    dt = float(case["run"]["record_dt_s"]) if record_dt is None else float(record_dt)
     clock = time.perf_counter()
     res = simulate(model, t_end, s0, record_dt=dt)
     run_s = time.perf_counter() - clock

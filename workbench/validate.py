@@ -26,7 +26,7 @@ from solver.chain import DivergenceError
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError
 from workbench import log_inputs
-from workbench.cases import Case, case_log_paths, load_case
+from workbench.cases import Case, case_log_paths, check_log_agrees, load_case
 from workbench.diagnosis import EffectCalibrator, Setup, SimulationFailed
 from workbench.effects_compare import apply_comparison_effects
 from workbench.errors import EXIT_BAD_INPUT, InputError, exit_code_for
@@ -212,6 +212,12 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
     cluster at `scheduler`) and gate them."""
     from tqdm import tqdm
     cases = [load_case(p) for p in case_paths]
+    seen: dict[str, str] = {}
+    for c in cases:
+        if c.id in seen:
+            # one id, one set of results and figures: the second would overwrite the first
+            raise InputError(f"{c.path}: case id '{c.id}' is also the id of {seen[c.id]}; ids must be unique")
+        seen[c.id] = c.path
     outcomes: dict[str, CaseOutcome] = {}
     jobs = []
     for case in cases:
@@ -223,6 +229,10 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             from workbench.properties.measure import group_measurements, measure_records
             try:
                 groups = group_measurements(measure_records(paths))
+                other = sorted({g["hose"] for g in groups} - {case["hardware"]["hose"]})
+                if other:
+                    raise InputError(f"{case.path}: [hardware] hose '{case['hardware']['hose']}' differs from "
+                                     f"the logs' hose '{other[0]}'")
             except (LogError, InputError, ValueError) as exc:
                 outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc), error_code=EXIT_BAD_INPUT)
                 continue
@@ -231,6 +241,8 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
             continue
         try:
             records = {p: read_record(p) for p in paths}
+            for r in records.values():
+                check_log_agrees(case, r)      # refused before any simulation, not gated
             tuned, calibrated, variants = {}, {}, []
             for v in variants_of(case):
                 for key in ("tune_drogue_lift_on", "calibrate_on"):

@@ -59,7 +59,7 @@ def test_demo_case_builds_the_data_sheet_hose():
     ("n_elements = 40", "n_elments = 40", r"\[model\] unknown key 'n_elments'"),
     ('hose_fuel = "full"', 'hose_fuel = "half"', r"\[condition\] hose_fuel must be one of"),
     ('hose = "kdc10_pod"', 'hose = "nope"', r"no hose 'nope' \(known: .*kdc10_pod"),
-    ("EI_N_m2 = 50.0", "EI_N_m2 = -5.0", r"\[model.structure\] EI_N_m2 must be positive"),
+    ("EI_N_m2 = 50.0", "EI_N_m2 = -5.0", r"\[model.structure\] EI_N_m2 must lie in \[0.1, 100000\]"),
     ("EI_N_m2 = 50.0", "EI_N_m2 = nan", r"EI_N_m2 must (be finite|be positive)"),
     ("[run]", "[runn]", r"unknown table \[runn\]"),
     ('kind = "pitch_doublet"', 'kind = "loop"', r"kind must be one of"),

@@ -5,7 +5,9 @@ from pathlib import Path
 
 import click
 
-from workbench.cli.params import POSITIVE
+from workbench.budget import MAX_DURATION_S
+from workbench.cli.params import FiniteFloatRange
+from workbench.outputs import writable_file
 
 
 @click.command()
@@ -16,8 +18,8 @@ from workbench.cli.params import POSITIVE
 @click.option("--case", "case_file", default=None, metavar="CASE",
               help="The case to simulate (a file, or a name under cases/); default: the case in cases/ that "
                    "lists the log, else the diagnosis's baseline template for the log's kind.")
-@click.option("--duration", type=POSITIVE, default=None, help="Simulated seconds from the log's start "
-                                                           "(default: the case's, or the log's span).")
+@click.option("--duration", type=FiniteFloatRange(0.0, MAX_DURATION_S, min_open=True), default=None,
+              help="Simulated seconds from the log's start (default: the case's, or the log's span).")
 @click.option("--animate", "gif_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Also write a GIF of the simulated hose over the log's video points.")
 def compare(log_file: Path, mcap_file: Path, case_file: str | None, duration: float | None,
@@ -29,6 +31,8 @@ def compare(log_file: Path, mcap_file: Path, case_file: str | None, duration: fl
     from workbench.run import case_for_log, run_case, write_comparison_mcap
     record = read_record(log_file)
     case = load_case(case_paths((case_file,))[0]) if case_file else case_for_log(record)
+    writable_file(mcap_file, "--mcap")      # before any computing
+    writable_file(gif_file, "--animate")
     outcome = run_case(case, duration, record)
     paths = [write_comparison_mcap(outcome, mcap_file)]
     if gif_file is not None:

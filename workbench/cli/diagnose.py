@@ -10,31 +10,48 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.params import WORKERS
 from workbench.errors import InputError
+from workbench.outputs import claim, timestamped
+from workbench.provenance import ROOT
 
-# a diagnosis writes here, not over the committed reference in reports/diagnose that `validate` reads
-DEFAULT_OUT = Path("reports/diagnose-out")
+# the diagnosis the repository keeps (validate folds it into its report): only
+# --update-committed writes it
+COMMITTED = ROOT / "reports" / "diagnose"
 
 
 @click.command()
 @click.argument("logs", nargs=-1, type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=DEFAULT_OUT,
-              show_default=True, help="Folder for diagnosis.json and diagnosis.html.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Folder for diagnosis.json and diagnosis.html [default: a new folder "
+                   "reports/out/diagnose-<time>].")
+@click.option("--update-committed", is_flag=True,
+              help=f"Write the committed diagnosis ({COMMITTED.relative_to(ROOT)}) instead, over the old one.")
+@click.option("--force", is_flag=True, help="Overwrite an earlier diagnosis in --out.")
 @click.option("--selftest", is_flag=True, help="Generate logs with a withheld effect and diagnose them blind.")
-@click.option("--n", "n_logs", type=click.IntRange(min=1), default=42, show_default=True, help="Generated logs in the selftest.")
-@click.option("--seed", type=click.IntRange(min=0), default=2026, show_default=True, help="Selftest random seed.")
-@click.option("--n-elements", type=click.IntRange(2, 400), default=None, help="Hose elements of the diagnosis (default 20).")
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="Local worker processes (default: all cores).")
+@click.option("--n", "n_logs", type=click.IntRange(1, 1000), default=42, show_default=True,
+              help="Generated logs in the selftest.")
+@click.option("--seed", type=click.IntRange(0, 2 ** 32 - 1), default=2026, show_default=True,
+              help="Selftest random seed.")
+@click.option("--n-elements", type=click.IntRange(4, 200), default=None,
+              help="Hose elements of the diagnosis (default 20).")
+@click.option("--workers", type=WORKERS, default=None, help="Local worker processes (default: all cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the candidate fits on a Dask distributed cluster (e.g. tcp://host:8786).")
-def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, scheduler) -> None:
+def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_elements, workers,
+             scheduler) -> None:
     """Where the simulation departs from LOGS, which unmodelled effect explains it, how far the gap shrinks."""
     from workbench import diagnosis as D
     t0 = time.perf_counter()
     try:
+        if not (logs or selftest):
+            raise InputError("give one or more LOG.mcap files, or --selftest")
+        out_dir = _out_folder(out_dir, update_committed)
+        # the folder checked, unclaimed by another run and locked before any computing
+        click.get_current_context().with_resource(
+            claim(out_dir, ["diagnosis.json", "selftest.json"], force or update_committed))
         if selftest:
             from workbench.diagnosis.selftest import run_selftest
-            out_dir.mkdir(parents=True, exist_ok=True)
             r = run_selftest(n=n_logs, seed=seed, n_elements=n_elements, workers=workers, scheduler=scheduler,
                              out_dir=out_dir, progress=click.echo)
             path = D.write_selftest(r, out_dir)
@@ -45,8 +62,6 @@ def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, schedul
                 click.echo(f"  {k}: n {v['n']}, top-1 {100 * v['top1']:.0f} %, median shrink "
                            f"{100 * v['median_shrink']:.0f} %")
             return
-        if not logs:
-            raise InputError("give one or more LOG.mcap files, or --selftest")
         out = D.diagnose([str(p) for p in logs], n_elements or D.DEFAULT_ELEMENTS, workers, scheduler,
                          progress=click.echo)
     except InputError as exc:
@@ -63,3 +78,11 @@ def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, schedul
                    f"{json.dumps(top.params, default=float)} -> held out {top.gap_after_heldout:.3f} m "
                    f"({d.wall_s:.0f} s)")
     click.echo(f"wrote {files['json']} ({time.perf_counter() - t0:.0f} s)")
+
+
+def _out_folder(out_dir: Path | None, update_committed: bool) -> Path:
+    if update_committed:
+        if out_dir is not None:
+            raise InputError("--out and --update-committed: give one, not both")
+        return COMMITTED
+    return out_dir if out_dir is not None else timestamped(ROOT / "reports" / "out", "diagnose")

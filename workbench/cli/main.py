@@ -15,8 +15,8 @@ from workbench.cli.logs import logs
 from workbench.cli.properties import properties
 from workbench.cli.run import run
 from workbench.cli.validate import validate
-from workbench.errors import (BAD_INPUT, EXIT_BAD_INPUT, EXIT_GATE_FAILED, EXIT_INTERNAL, EXIT_NUMERICAL,
-                              NUMERICAL)
+from workbench.errors import (BAD_INPUT, EXIT_BAD_INPUT, EXIT_GATE_FAILED, EXIT_INTERNAL, EXIT_INTERRUPTED,
+                              EXIT_NUMERICAL, NUMERICAL)
 
 HELP = f"""Hose-and-drogue aerial refueling simulation and validation workbench.
 
@@ -27,6 +27,7 @@ Exit status of every command:
   {EXIT_BAD_INPUT}  bad input: a case, CLI option, log or hardware file (one line names it)
   {EXIT_NUMERICAL}  numerical failure: the solver diverged or its static solve failed
   {EXIT_INTERNAL}  internal error: a defect; the traceback is written to a log file
+  {EXIT_INTERRUPTED}  interrupted (Ctrl-C)
 """
 
 
@@ -46,8 +47,15 @@ class GuardedGroup(click.Group):
     def invoke(self, ctx: click.Context):
         try:
             return super().invoke(ctx)
-        except (click.exceptions.Exit, click.Abort, click.UsageError):
-            raise                                    # click's own: --help, Ctrl-C, usage line (exit 2)
+        except (click.exceptions.Exit, click.Abort):
+            raise                                    # click's own: --help, a declined prompt
+        except click.UsageError as exc:
+            # one line naming the option, as for any other bad input (click prints three)
+            hint = f" (see 'workbench {exc.ctx.command_path.split(' ', 1)[-1]} --help')" if exc.ctx else ""
+            self._fail(ctx, EXIT_BAD_INPUT, f"Error: {exc.format_message()}{hint}")
+        except KeyboardInterrupt:
+            # not the gate-failed 1 click would give: the shell's code for SIGINT
+            self._fail(ctx, EXIT_INTERRUPTED, "interrupted (Ctrl-C); outputs may be incomplete")
         except click.ClickException as exc:
             exc.exit_code = EXIT_BAD_INPUT           # the verbs raise these only for bad input
             raise

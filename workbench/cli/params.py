@@ -5,10 +5,6 @@ import math
 
 import click
 
-# absolute zero in degrees Fahrenheit: no temperature lies at or below it
-ABSOLUTE_ZERO_F = -459.67
-
-
 class FiniteFloatRange(click.FloatRange):
     """`click.FloatRange` that also refuses NaN and infinity, which pass a
     plain range check (every comparison with NaN is false)."""
@@ -22,4 +18,4 @@ class FiniteFloatRange(click.FloatRange):
         return rv
 
 
-POSITIVE = FiniteFloatRange(min=0.0, min_open=True)
+WORKERS = click.IntRange(1, 256)   # processes: one per core of the largest machine we expect

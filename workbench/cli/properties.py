@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from workbench.cli.params import ABSOLUTE_ZERO_F, POSITIVE, FiniteFloatRange
+from workbench.cli.params import FiniteFloatRange
 from workbench.errors import EXIT_GATE_FAILED, InputError
 
 
@@ -49,6 +49,9 @@ def build(logs_dir: Path | None, out_dir: Path | None, update_committed: bool, h
         except ValueError:
             raise click.BadParameter(f"{element_counts!r} is not a comma-separated list of integers",
                                      param_hint="--element-counts") from None
+        if not counts or not all(2 <= n <= 256 for n in counts):
+            raise click.BadParameter(f"{element_counts!r}: each count must lie in 2..256 (a bench section "
+                                     f"of 1-2 m in elements of 5 mm or more)", param_hint="--element-counts")
     try:
         target = build_target(out_dir, update_committed)
     except InputError as exc:
@@ -98,8 +101,8 @@ def build(logs_dir: Path | None, out_dir: Path | None, update_committed: bool, h
 
 @properties.command()
 @click.argument("hose")
-@click.argument("temperature_f", type=FiniteFloatRange(min=ABSOLUTE_ZERO_F, min_open=True))
-@click.argument("element_length_m", type=POSITIVE)
+@click.argument("temperature_f", type=FiniteFloatRange(-100.0, 350.0))   # the log contract's chamber range
+@click.argument("element_length_m", type=FiniteFloatRange(0.0, 10.0, min_open=True))
 @click.option("--file", "prop_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Property file [default: cases/properties/hose_properties.json].")
 @click.option("--allow-extrapolation", is_flag=True,

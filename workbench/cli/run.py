@@ -5,7 +5,9 @@ from pathlib import Path
 
 import click
 
-from workbench.cli.params import POSITIVE
+from workbench.budget import MAX_DURATION_S
+from workbench.cli.params import FiniteFloatRange
+from workbench.outputs import claim, safe_name, writable_file
 from workbench.run import DEFAULT_OUT
 
 
@@ -16,8 +18,9 @@ from workbench.run import DEFAULT_OUT
                    "reel and probe from it); needed by cases that take them from a log.")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=DEFAULT_OUT,
               show_default=True, help="Folder for the run's outputs (a subfolder per case id).")
-@click.option("--duration", type=POSITIVE, default=None,
+@click.option("--duration", type=FiniteFloatRange(0.0, MAX_DURATION_S, min_open=True), default=None,
               help="Simulated seconds (default: the case's, or the log's span).")
+@click.option("--force", is_flag=True, help="Overwrite this case's results of an earlier run in --out.")
 @click.option("--effect", "effects", multiple=True, metavar="NAME[:key=value,...]",
               help="Turn on an unmodelled effect, over the case's [effects.NAME] (repeatable).")
 @click.option("--mcap", "mcap_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
@@ -26,7 +29,7 @@ from workbench.run import DEFAULT_OUT
 @click.option("--animate", "gif_file", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Also write a GIF of the hose (side and top views; with --log over the video points).")
 def run(case_file: Path, log_file: Path | None, out_dir: Path, duration: float | None, effects: tuple[str, ...],
-        mcap_file: Path | None, gif_file: Path | None) -> None:
+        mcap_file: Path | None, gif_file: Path | None, force: bool) -> None:
     """Simulate one case: static trail, then the run; write time series, summary and plot."""
     from flighttest import read_record
     from workbench.cases import load_case
@@ -34,6 +37,10 @@ def run(case_file: Path, log_file: Path | None, out_dir: Path, duration: float |
     from workbench.run import run_case, write_mcap, write_outputs
     case = with_effects(load_case(case_file), parse_effect_options(effects))
     record = read_record(log_file) if log_file is not None else None
+    # the folder checked, unclaimed by another run and locked before any computing
+    click.get_current_context().with_resource(claim(out_dir, [safe_name(case.id)], force))
+    writable_file(mcap_file, "--mcap")
+    writable_file(gif_file, "--animate")
     outcome = run_case(case, duration, record)
     paths = write_outputs(outcome, out_dir)
     if mcap_file is not None:

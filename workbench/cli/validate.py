@@ -8,9 +8,14 @@ from pathlib import Path
 
 import click
 
+from workbench.cli.params import WORKERS
 from workbench.errors import EXIT_GATE_FAILED, InputError
+from workbench.outputs import claim
+from workbench.provenance import read_text_limited
 
 CASES = Path(__file__).resolve().parents[2] / "cases"
+# what a validate run leaves in --out: a folder holding one is another run's
+RESULTS = ("results.json", "report.html", "junit.xml")
 
 
 def case_paths(targets: tuple[str, ...]) -> list[Path]:
@@ -32,29 +37,30 @@ def case_paths(targets: tuple[str, ...]) -> list[Path]:
 def _diagnosis_section(diagnosis_file: Path) -> dict:
     from workbench.diagnosis.report import report_section
     try:
-        diag = json.loads(diagnosis_file.read_text())
+        diag = json.loads(read_text_limited(diagnosis_file, "diagnosis file"))
         # the blind selftest's figures, when `diagnose --selftest` wrote them beside it
         st = diagnosis_file.with_name("selftest.json")
         if st.exists():
-            diag["selftest"] = json.loads(st.read_text())
+            diag["selftest"] = json.loads(read_text_limited(st, "selftest file"))
         return report_section(diag)
-    except (ValueError, KeyError, TypeError) as exc:
-        raise InputError(f"{diagnosis_file}: not a diagnosis.json ({exc})") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:   # any JSON that is not one
+        raise InputError(f"{diagnosis_file}: not a diagnosis.json ({type(exc).__name__}: {exc})") from None
 
 
 @click.command()
 @click.argument("targets", nargs=-1, required=True)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
               show_default=True, help="Folder for report.html, report.pdf, results.json, junit.xml.")
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes (default: one per core).")
+@click.option("--workers", type=WORKERS, default=None, help="Processes (default: one per core).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the campaign on a Dask distributed cluster (e.g. tcp://host:8786) instead of local processes.")
+@click.option("--force", is_flag=True, help="Overwrite the results of an earlier run in --out.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 @click.option("--diagnosis", "diagnosis_file", type=click.Path(dir_okay=False, path_type=Path),
               default=Path("reports/diagnose/diagnosis.json"), show_default=True,
               help="A diagnosis.json to fold into the report as its own section (skipped if absent).")
 def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, scheduler: str | None,
-             no_progress: bool, diagnosis_file: Path) -> None:
+             no_progress: bool, diagnosis_file: Path, force: bool) -> None:
     """Run cases against their logs, check gates and findings: `validate all` or `validate CASE...`.
 
     Exit status: 0 every gate passes and every finding is as expected; 1 a gate
@@ -63,12 +69,15 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, sched
     from workbench.report import finding_message, gate_message, write_report
     from workbench.validate import results_dict, validate_cases
     paths = case_paths(targets)
+    # the folder checked, unclaimed by another run and locked before any computing
+    click.get_current_context().with_resource(claim(out_dir, RESULTS, force))
+    # a bad --diagnosis is refused before the runs, not after them
+    sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
     t0 = time.perf_counter()
     outcomes = validate_cases(paths, workers=workers, progress=not no_progress, scheduler=scheduler)
     results = results_dict(outcomes)
     wall = time.perf_counter() - t0
     results["wall_s"] = wall
-    sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
     files = write_report(outcomes, results, out_dir, wall, extra_sections=sections)
     cases = results["cases"]
     gates = [g for c in cases for g in c["gates"]]

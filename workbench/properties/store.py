@@ -8,7 +8,7 @@ from pathlib import Path
 
 from solver.properties import PropertyLibrary
 from workbench.errors import InputError
-from workbench.provenance import ROOT, FileCache, json_safe
+from workbench.provenance import ROOT, FileCache, json_safe, read_text_limited
 
 # The committed table that cases with `source = "table"` use.
 DEFAULT_PATH = ROOT / "cases" / "properties" / "hose_properties.json"
@@ -60,11 +60,11 @@ def write_properties(doc: dict, path: str | Path = DEFAULT_PATH) -> Path:
 
 def read_properties(path: str | Path = DEFAULT_PATH) -> dict:
     p = Path(path)
+    if not p.exists():
+        raise InputError(f"{p}: property file not found (make it with 'workbench properties build')")
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{p}: property file not found (make it with 'workbench properties build')") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        doc = json.loads(read_text_limited(p, "property file"))
+    except json.JSONDecodeError as exc:
         raise InputError(f"{p}: not valid JSON ({exc})") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise InputError(f"{p}: format {doc.get('format') if isinstance(doc, dict) else None!r}, "
