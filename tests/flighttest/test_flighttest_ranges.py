@@ -298,9 +298,13 @@ def test_random_metadata_gives_a_record_or_one_line_logerror(changes):
         rec = read_record_bytes(MC.build(metas=[("test", meta)], kind="trail"), name="random.mcap")
     except LogError as err:
         msg = str(err)
-        assert "\n" not in msg and msg.startswith("random.mcap: metadata key '")
-        key = msg.split("'")[1]
-        assert key in changes
+        assert "\n" not in msg and msg.startswith("random.mcap: ")
+        if msg.startswith("random.mcap: metadata key '"):
+            assert msg.split("'")[1] in changes
+        else:
+            # a legal card value the data contradict (a hose too short for the logged fixes):
+            # the one line names the key it checked against
+            assert any(key in msg for key in changes), msg
         return
     assert isinstance(rec, FlightRecord)
     info: TestInfo = rec.info
