@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from flighttest import read_record  # noqa: E402
-from flighttest.compare import engagement_moments  # noqa: E402
+from flighttest.residual import engagement_moments  # noqa: E402
 
 COLORS = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
 

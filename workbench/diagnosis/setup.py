@@ -20,10 +20,6 @@ from workbench.errors import InputError
 TEMPLATES = Path(__file__).resolve().parent.parent.parent / "cases" / "templates"
 DIAG_KINDS = ("pitch_doublet", "trail", "engagement")
 
-BIN_S = 0.25            # drogue channel averaging (a quarter of the shortest period seen)
-VIDEO_WINDOW_S = 1.0    # video normal errors averaged per window and station
-STATION_M = 3.0
-BLOCK_S = 2.0           # alternating train / held-out time blocks within one log
 NOISE_FACTOR = 2.0      # a gap under twice its noise floor is not a real gap
 PARAM_PENALTY = 0.05    # each parameter must buy 5 % of held-out gap
 SCREEN_KEEP = 5         # effects calibrated in full after the screen
