@@ -82,22 +82,23 @@ def compare_trail(log: FlightRecord, sim: FlightRecord, a_log: dict, a_sim: dict
                   R: Residual) -> dict[str, Any]:
     """The steady drogue errors, and the trail shape error.
 
-    Trail shape error: the signed normal distances of the log's mean video
-    shape (per segment, `SHAPE_BIN_M` bins along x) from the simulation's mean
-    hose line over the same segment, i.e. the residual's hose components,
-    counting those whose foot lies inside the simulated line (an end-clamped
-    distance is not a normal one). It replaced the distance of every video
-    point from the last simulated frame: that mixed the hose's own scatter
-    (turbulence, digitising: about 0.15 m) and one instant's simulated
-    turbulence into a steady-shape error, so it could not fall below the
-    noise however good the model, and a record against itself did not give
-    zero. The mean shapes average the scatter away, as the diagnosis needs.
+    Trail shape error: the RMS of the residual's hose components, i.e. the
+    signed normal distances of the log's mean video shape (per segment,
+    `SHAPE_BIN_M` bins along x) from the simulation's mean hose line over the
+    same segment: the number the diagnosis fits, every bin counted (a bin
+    beyond an end of the simulated line counts its distance from that end).
+    It replaced the distance of every video point from the last simulated
+    frame, which mixed the hose's own scatter (turbulence, digitising) and one
+    instant of the simulation into a steady-shape error, weighted the hose by
+    where the digitiser put most points, and left a record against itself
+    with a non-zero error. The mean shape averages the scatter away and
+    counts each metre of hose once.
     """
     out: dict[str, Any] = {}
     _side_by_side(out, a_log, a_sim, ["drogue_steady_x_m", "drogue_steady_y_m", "drogue_steady_z_m"])
     for c in "xyz":
         out[f"drogue_steady_{c}_error_m"] = _diff(a_sim[f"drogue_steady_{c}_m"], a_log[f"drogue_steady_{c}_m"])
-    h = R.hose[R.hose["inside"]]
+    h = R.hose
     e = h["normal_m"].to_numpy(float)
     out["trail_shape_rms_error_m"] = rms(e)
     out["trail_shape_max_error_m"] = float(np.max(np.abs(e))) if len(e) else float("nan")

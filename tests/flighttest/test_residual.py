@@ -112,6 +112,9 @@ def test_a_trail_drogue_offset_and_a_raised_hose_give_those_offsets():
     assert np.all(h["normal_m"] <= -dz * math.cos(math.atan(steepest)) + EXACT)
     assert np.all(h["normal_m"] >= -dz - EXACT)
     assert_allclose(h["vertical_m"].dropna(), -dz, atol=EXACT)
+    # validation's trail shape error is the RMS of those same hose components
+    shape = compare(rec, _moved(rec, hose_dz=dz)).metrics["trail_shape_rms_error_m"]
+    assert_allclose(shape, np.sqrt(np.mean(R.r[R.channel == "hose"] ** 2)), rtol=1e-12)
 
 
 def test_the_engagement_hose_normals_are_the_polyline_projection_of_each_frame():
