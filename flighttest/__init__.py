@@ -10,7 +10,9 @@ card), `record` (`FlightRecord`, `LogError`), `reader` (the one door for
 logs) over `container` (MCAP walk), `messages` (message checks, shared with
 `writer`) and `plausibility` (what the values show together), `writer`,
 `metrics` (measurements on arrays, by concern), `analyze` (one record on its
-own), `compare` (a log against a simulation).  Modules import each other by
+own), `residual` (the one comparison of a log with a simulated record:
+components tagged by channel, station, phase, segment and band), `compare`
+(validation's metrics from it, with the residual, as a `Comparison`).  Modules import each other by
 name (`from .schema import ...`), never through this package, so importing
 any of them cannot loop back here.
 """

@@ -1,20 +1,27 @@
 """One record against another: a simulation saved in the log contract against
-the flight log it reproduces. The same path serves validation and diagnosis.
+the flight log it reproduces. The same path serves validation and diagnosis:
+`compare(log, sim)` returns a `Comparison`, validation's metrics beside the
+`residual.Residual` the diagnosis measures its gap with; the shape errors in
+the metrics are computed from that residual's hose points, so there is one
+definition of each.
 
-Each comparison measures both records with the same code (`analyze_record`,
-the metrics) and reports log value, simulated value and error side by side,
-with units in the names.
+The metrics measure both records with the same code (`analyze_record`, the
+metrics) and report log value, simulated value and error side by side, with
+units in the names.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 import flighttest.metrics as M
 from .analyze import analyze_record
 from .record import FlightRecord
+from .residual import SHAPE_BIN_M, Residual, engagement_moments, observe, residual, rms
 
 
 def _pct(sim, log):
@@ -36,21 +43,14 @@ def _side_by_side(out: dict, a_log: dict, a_sim: dict, keys) -> None:
 
 
 def _drogue_series(rec: FlightRecord, col: str):
-    ors = rec.topic("/ors/drogue")
-    ok = ors["valid"].to_numpy(bool)
-    return ors.index.to_numpy(float)[ok], ors[col].to_numpy(float)[ok]
+    fixes = rec.tracker_fixes()
+    return fixes.index.to_numpy(float), fixes[col].to_numpy(float)
 
 
-def _last_frame_shape(rec: FlightRecord, t: float | None = None):
-    hose = rec.topic("/video/hose")
-    times = np.unique(hose["t_s"].to_numpy(float))
-    tf = times[-1] if t is None else times[np.argmin(np.abs(times - t))]
-    fr = hose[hose["t_s"] == tf].sort_values("point")
-    return tf, fr["x_m"].to_numpy(float), fr["z_m"].to_numpy(float)
-
-
-def compare_pitch_doublet(log: FlightRecord, sim: FlightRecord) -> dict[str, Any]:
-    a_log, a_sim = analyze_record(log), analyze_record(sim)
+def compare_pitch_doublet(log: FlightRecord, sim: FlightRecord, a_log: dict, a_sim: dict,
+                          R: Residual) -> dict[str, Any]:
+    """Frequency, damping and steady position side by side, and the response
+    about each record's own steady position."""
     out: dict[str, Any] = {}
     _side_by_side(out, a_log, a_sim, ["drogue_frequency_hz", "drogue_damping_ratio",
                                       "drogue_steady_x_m", "drogue_steady_z_m"])
@@ -74,95 +74,74 @@ def compare_pitch_doublet(log: FlightRecord, sim: FlightRecord) -> dict[str, Any
     return out
 
 
-def compare_trail(log: FlightRecord, sim: FlightRecord) -> dict[str, Any]:
-    a_log, a_sim = analyze_record(log), analyze_record(sim)
+def _none_if_nan(v: float) -> float | None:
+    return None if not np.isfinite(v) else float(v)
+
+
+def compare_trail(log: FlightRecord, sim: FlightRecord, a_log: dict, a_sim: dict,
+                  R: Residual) -> dict[str, Any]:
+    """The steady drogue errors, and the trail shape error.
+
+    Trail shape error: the RMS of the residual's hose components, i.e. the
+    signed normal distances of the log's mean video shape (per segment,
+    `SHAPE_BIN_M` bins along x) from the simulation's mean hose line over the
+    same segment: the number the diagnosis fits, every bin counted (a bin
+    beyond an end of the simulated line counts its distance from that end).
+    It replaced the distance of every video point from the last simulated
+    frame, which mixed the hose's own scatter (turbulence, digitising) and one
+    instant of the simulation into a steady-shape error, weighted the hose by
+    where the digitiser put most points, and left a record against itself
+    with a non-zero error. The mean shape averages the scatter away and
+    counts each metre of hose once.
+    """
     out: dict[str, Any] = {}
     _side_by_side(out, a_log, a_sim, ["drogue_steady_x_m", "drogue_steady_y_m", "drogue_steady_z_m"])
     for c in "xyz":
         out[f"drogue_steady_{c}_error_m"] = _diff(a_sim[f"drogue_steady_{c}_m"], a_log[f"drogue_steady_{c}_m"])
-    hose = log.topic("/video/hose")
-    _, xs, zs = _last_frame_shape(sim)
-    se = M.shape_error(hose["x_m"], hose["z_m"], xs, zs)
-    out["trail_shape_rms_error_m"] = se.rms_m
-    out["trail_shape_max_error_m"] = se.max_abs_m
-    out["trail_vertical_rms_error_m"] = se.vertical_rms_m
+    h = R.hose
+    e = h["normal_m"].to_numpy(float)
+    out["trail_shape_rms_error_m"] = rms(e)
+    out["trail_shape_max_error_m"] = float(np.max(np.abs(e))) if len(e) else float("nan")
+    out["trail_vertical_rms_error_m"] = rms(R.hose["vertical_m"].dropna())
+    st = h["station_m"].to_numpy(float)
+    edges = np.arange(0.0, (st.max() if len(st) else 0.0) + SHAPE_BIN_M, SHAPE_BIN_M)
+    k = np.clip(np.digitize(st, edges) - 1, 0, max(len(edges) - 2, 0))
+    by = [e[k == i] for i in range(len(edges) - 1)]
     out["trail_shape_error_by_station_m"] = {
-        "station_lo_m": [float(v) for v in se.bins["station_lo_m"]],
-        "rms_m": [None if not np.isfinite(v) else float(v) for v in se.bins["rms_m"]],
-        "mean_m": [None if not np.isfinite(v) else float(v) for v in se.bins["mean_m"]],
+        "station_lo_m": [float(v) for v in edges[:-1]],
+        "rms_m": [_none_if_nan(rms(v)) if len(v) else None for v in by],
+        "mean_m": [_none_if_nan(float(np.mean(v))) if len(v) else None for v in by],
     }
     return out
 
 
-def engagement_moments(rec: FlightRecord) -> dict[str, float]:
-    """The paper's six moments of an engagement (Fig. 19), found in the log:
-    contact and disconnect (probe events); maximum slack and wave (largest
-    sag of the video hose from its tow-point-to-drogue chord in the 6 s after
-    contact); slack developing (half way from contact to maximum slack);
-    maximum reel take-up (least hose out); refuelling steady state (half way
-    from maximum take-up to disconnect)."""
-    a = analyze_record(rec)
-    tc, td = a["contact_time_s"], a["disconnect_time_s"]
-    if tc is None:
-        raise ValueError(f"{rec.path}: no contact event")
-    td = td if td is not None else float(rec.topic("/ors/drogue").index[-1])
-    hose = rec.topic("/video/hose")
-    best, t_sag = -1.0, tc
-    for tf, fr in hose.groupby("t_s"):
-        if not (tc <= tf <= tc + 6.0):
-            continue
-        fr = fr.sort_values("point")
-        p = fr[["x_m", "z_m"]].to_numpy(float)
-        chord = p[-1] - p[0]
-        n = np.hypot(*chord)
-        if n <= 0:
-            continue
-        sag = np.max(np.abs(np.cross(chord, p - p[0]) / n))
-        if sag > best:
-            best, t_sag = sag, float(tf)
-    reel = rec.topic("/reel/hose_out")
-    tr = reel.index.to_numpy(float)
-    L = reel["length_m"].to_numpy(float)
-    w = (tr >= tc) & (tr <= td)
-    t_take = float(tr[w][np.argmin(L[w])]) if w.any() else tc
-    return {"contact": tc, "slack": 0.5 * (tc + t_sag), "max_slack_wave": t_sag,
-            "max_reel_takeup": t_take, "refuelling_steady": 0.5 * (t_take + td), "disconnect": td}
-
-
-def compare_engagement(log: FlightRecord, sim: FlightRecord) -> dict[str, Any]:
-    a_log, a_sim = analyze_record(log), analyze_record(sim)
+def compare_engagement(log: FlightRecord, sim: FlightRecord, a_log: dict, a_sim: dict,
+                       R: Residual) -> dict[str, Any]:
+    """Wave speed and reel figures side by side, and the hose shape error of
+    each video frame (RMS of its points' normal distances from the simulated
+    hose of that moment, feet inside the line) over time and at the paper's
+    six moments."""
     out: dict[str, Any] = {}
     _side_by_side(out, a_log, a_sim, ["wave_speed_mps", "reel_delay_s", "reel_takeup_max_m",
                                       "drogue_pushback_max_m"])
     out["wave_speed_error_pct"] = _pct(a_sim.get("wave_speed_mps"), a_log.get("wave_speed_mps"))
     moments = engagement_moments(log)
-    hose = log.topic("/video/hose")
-    shim = sim.topic("/video/hose")
-    sim_times = np.unique(shim["t_s"].to_numpy(float))
-    series_t, series_rms = [], []
-    for tf, fr in hose.groupby("t_s"):
-        ts = sim_times[np.argmin(np.abs(sim_times - tf))]
-        if abs(ts - tf) > 0.06:
-            continue
-        sf = shim[shim["t_s"] == ts].sort_values("point")
-        se = M.shape_error(fr["x_m"], fr["z_m"], sf["x_m"], sf["z_m"])
-        series_t.append(float(tf))
-        series_rms.append(se.rms_m)
-    series_t = np.array(series_t)
-    series_rms = np.array(series_rms)
+    h = R.hose[np.isfinite(R.hose["normal_m"].to_numpy(float))]
+    e = np.where(h["inside"].to_numpy(bool), h["normal_m"].to_numpy(float), np.nan)
+    per_frame = pd.Series(e ** 2).groupby(h["t_s"].to_numpy(float)).mean()
+    series_t = per_frame.index.to_numpy(float)
+    series_rms = np.sqrt(per_frame.to_numpy(float))
     out["shape_error_time_s"] = series_t.tolist()
-    out["shape_error_rms_m"] = [None if not np.isfinite(v) else float(v) for v in series_rms]
+    out["shape_error_rms_m"] = [_none_if_nan(v) for v in series_rms]
     for name, tm in moments.items():
         out[f"moment_{name}_s"] = tm
         k = int(np.argmin(np.abs(series_t - tm))) if len(series_t) else None
-        out[f"shape_rms_error_at_{name}_m"] = (float(series_rms[k]) if k is not None and
-                                              np.isfinite(series_rms[k]) else None)
+        out[f"shape_rms_error_at_{name}_m"] = _none_if_nan(series_rms[k]) if k is not None else None
     engaged = (series_t >= moments["contact"]) & (series_t <= moments["disconnect"])
     vals = series_rms[engaged & np.isfinite(series_rms)]
-    out["shape_rms_error_engaged_m"] = float(np.sqrt(np.mean(vals ** 2))) if len(vals) else None
+    out["shape_rms_error_engaged_m"] = rms(vals) if len(vals) else None
     pre = (series_t < moments["contact"]) & np.isfinite(series_rms)
-    out["shape_rms_error_pre_contact_m"] = (float(np.sqrt(np.mean(series_rms[pre] ** 2)))
-                                           if pre.any() else None)
+    out["shape_rms_error_pre_contact_m"] = rms(series_rms[pre]) if pre.any() else None
     return out
 
 
@@ -173,10 +152,31 @@ COMPARE = {
 }
 
 
-def compare_records(log: FlightRecord, sim: FlightRecord) -> dict[str, Any]:
-    """Metrics of `sim` against `log` for the log's test kind."""
+@dataclasses.dataclass(frozen=True, eq=False)
+class Comparison:
+    """A log against a simulated record: validation's `metrics` (name -> value,
+    units in the names; None where a value cannot be measured) and the
+    `residual` the diagnosis measures its gap with."""
+
+    test_id: str
+    kind: str
+    metrics: dict[str, Any]
+    residual: Residual
+
+    def to_pandas(self) -> pd.Series:
+        """The scalar metrics, indexed by name (lists and tables left out)."""
+        return pd.Series({k: (np.nan if v is None else v) for k, v in self.metrics.items()
+                          if v is None or isinstance(v, (int, float))}, name=self.test_id, dtype=float)
+
+
+def compare(log: FlightRecord, sim: FlightRecord, *, delay_s: float = 0.0) -> Comparison:
+    """`sim` against `log`: the metrics of the log's test kind and the residual.
+    `delay_s`: the tracker's latency, applied to the residual's drogue channels."""
     kind = log.info.test_kind
     if kind not in COMPARE:
         raise ValueError(f"{log.path}: no record comparison for test kind {kind!r}")
-    out = COMPARE[kind](log, sim)
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
+    ob = observe(log)
+    R = residual(ob, sim, delay_s=delay_s)
+    out = COMPARE[kind](log, sim, ob.analysis, analyze_record(sim), R)
+    metrics = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in out.items()}
+    return Comparison(log.info.test_id, kind, metrics, R)

@@ -11,7 +11,7 @@ import numpy as np  # noqa: E402
 
 from flighttest import read_record  # noqa: E402
 from workbench.outputs import safe_name  # noqa: E402
-from flighttest.compare import engagement_moments  # noqa: E402
+from flighttest.residual import engagement_moments  # noqa: E402
 
 COLORS = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
 

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass
 
 # Per case kind, the run metrics a gate or finding may name: what
-# `flighttest.compare.compare_records` (and, for engagements, validate's hose
+# `flighttest.compare.compare` (and, for engagements, validate's hose
 # whip measures; for ring-downs, `properties.verify_group`) produces per run.
 _SIDE = ("_log", "_sim")
 METRICS: dict[str, frozenset[str]] = {

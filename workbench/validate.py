@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from flighttest import FlightRecord, LogError, analyze_record, read_record
-from flighttest.compare import compare_records
+from flighttest.compare import compare
 from solver.chain import DivergenceError
 from solver.result import SimulationResult
 from solver.statics import StaticSolveError
@@ -171,7 +171,7 @@ def _one_run(args) -> Run:
     case, res = sim.case, sim.result
     sim_rec = result_to_record(res, rec, note=f"case {case.id}, variant {variant['id']}")
     # comparison-only effects (the tracker's delay) act on the log as compared, not on the physics
-    metrics = compare_records(apply_comparison_effects(rec, case["effects"]), sim_rec)
+    metrics = compare(apply_comparison_effects(rec, case["effects"]), sim_rec).metrics
     if case.kind == "engagement":
         metrics.update(_whip_metrics(res, rec))
     held_out = rec.info.test_id not in training_logs(variant)

@@ -6,8 +6,8 @@ Modules by concern, data flowing down the list:
 * `setup`: the method's constants, the baseline case from a log (`Setup`),
   which effects apply to a log; calibration metadata comes from the effect
   registry (`solver.effects.Param`).
-* `evaluate`: what is measured from a log (`Observed`), its residual against a
-  simulation (`Residual`, the gap), the simulation of a log under effects.
+* `evaluate`: the simulation of a log under effects, as a record, and its
+  residual (`flighttest.residual`, the comparison validation uses too; the gap).
 * `where`: the residual's where-map (channel, station, phase, band).
 * `fit`: `EffectCalibrator` (fit / score) and the folds (`LeaveOneLogOut`,
   `TimeBlocks`).

@@ -22,9 +22,10 @@ from typing import Iterator, Sequence, Union
 import numpy as np
 from scipy.optimize import least_squares
 
+from flighttest.residual import BLOCK_S
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import evaluate, gap
-from workbench.diagnosis.setup import BLOCK_S, Setup, calibrated_params, from_unit, to_unit
+from workbench.diagnosis.setup import Setup, calibrated_params, from_unit, to_unit
 
 Part = Union[str, tuple]     # a log path, or (path, segment 0 | 1)
 
@@ -67,7 +68,7 @@ class EffectCalibrator:
         for part in parts:
             path, seg = _part(part)
             R = evaluate(path, effects, self.setup)
-            out.append(R.r if seg is None else R.r[R.seg == seg])
+            out.append(R.r if seg is None else R.r[R.segment == seg])
         return np.concatenate(out)
 
     def fit(self, parts: Sequence[Part]) -> "EffectCalibrator":

@@ -24,10 +24,6 @@ DIAG_KINDS = ("pitch_doublet", "trail", "engagement")
 # The method's constants (`workbench.config`, where each is explained) are
 # fixed for a process when the diagnosis is imported: its per-process caches
 # of observations and simulations are keyed by log, not by them.
-BIN_S = defaults["diagnosis.bin_s"]
-VIDEO_WINDOW_S = defaults["diagnosis.video_window_s"]
-STATION_M = defaults["diagnosis.station_m"]
-BLOCK_S = defaults["diagnosis.block_s"]
 NOISE_FACTOR = defaults["diagnosis.noise_factor"]
 DEFAULT_ELEMENTS = defaults["diagnosis.n_elements"]
 PARAM_PENALTY = 0.05    # each parameter must buy 5 % of held-out gap

@@ -10,8 +10,9 @@ import numpy as np
 from scipy import signal
 
 from flighttest import metrics as M
-from workbench.diagnosis.evaluate import Observed, Residual, gap
-from workbench.diagnosis.setup import NOISE_FACTOR, STATION_M
+from flighttest.residual import STATION_M, Observation, Residual
+from workbench.diagnosis.evaluate import gap
+from workbench.diagnosis.setup import NOISE_FACTOR
 
 
 def _band_rms(t, y, f0, fs=30.0):
@@ -28,14 +29,14 @@ def _band_rms(t, y, f0, fs=30.0):
     return out
 
 
-def where_map(ob: Observed, R: Residual) -> dict:
+def where_map(ob: Observation, R: Residual) -> dict:
     """The baseline residual split by channel, station, phase and band, each beside the log's own floor."""
     out: dict = {"test_id": ob.test_id, "kind": ob.kind, "gap_m": gap(R.r),
-                 "noise_floor_m": gap(R.floor), "fundamental_hz": ob.f0}
+                 "noise_floor_m": gap(R.floor), "fundamental_hz": ob.fundamental_hz}
     out["real"] = bool(out["gap_m"] > NOISE_FACTOR * out["noise_floor_m"])
     chans = {}
-    for lab in np.unique(R.label):
-        s = R.label == lab
+    for lab in np.unique(R.channel):
+        s = R.channel == lab
         g, fl = gap(R.r[s]), gap(R.floor[s])
         chans[str(lab)] = {"gap_m": g, "floor_m": fl, "real": bool(g > NOISE_FACTOR * fl)}
     out["by_channel"] = chans
@@ -62,15 +63,15 @@ def where_map(ob: Observed, R: Residual) -> dict:
     out["by_phase"] = phases
     # bands of the drogue channels against the log's own motion in the same
     # band over its quietest phase (the first: trail before any event)
-    t, d = R.raw["drogue"]
+    t, d = R.drogue
     qa, qb = ob.phases[0][1], ob.phases[0][2]
-    quiet = (ob.ors_t >= qa) & (ob.ors_t < qb)
+    quiet = (ob.fix_t >= qa) & (ob.fix_t < qb)
     bands = {}
     for c, name in enumerate(("x", "y", "z")):
-        res_b = _band_rms(t, d[:, c], ob.f0)
+        res_b = _band_rms(t, d[:, c], ob.fundamental_hz)
         if quiet.sum() > 32:
-            y = ob.ors_xyz[quiet, c]
-            own = _band_rms(ob.ors_t[quiet], y - np.median(y), ob.f0)
+            y = ob.fix_xyz[quiet, c]
+            own = _band_rms(ob.fix_t[quiet], y - np.median(y), ob.fundamental_hz)
             own["steady_offset"] = float(np.std(y) / math.sqrt(max(quiet.sum() / 30.0, 1.0)))
         else:
             own = {"steady_offset": None, "fundamental": None, "above": None}
