@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from pathlib import Path
 
 import click
@@ -29,15 +28,15 @@ def case_paths(targets: tuple[str, ...]) -> list[Path]:
     return paths
 
 
-def _diagnosis_section(diagnosis_file: Path) -> dict:
-    from workbench.diagnosis.report import report_section
+def _diagnosis_section(diagnosis_file: Path) -> list:
+    from workbench.diagnosis.report import report_blocks
     try:
         diag = json.loads(diagnosis_file.read_text())
         # the blind selftest's figures, when `diagnose --selftest` wrote them beside it
         st = diagnosis_file.with_name("selftest.json")
         if st.exists():
             diag["selftest"] = json.loads(st.read_text())
-        return report_section(diag)
+        return report_blocks(diag)
     except (ValueError, KeyError, TypeError) as exc:
         raise InputError(f"{diagnosis_file}: not a diagnosis.json ({exc})") from None
 
@@ -47,33 +46,37 @@ def _diagnosis_section(diagnosis_file: Path) -> dict:
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=Path("reports/out"),
               show_default=True, help="Folder for report.html, report.pdf, results.json, junit.xml.")
 @click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes (default: one per core).")
-@click.option("--no-progress", is_flag=True, help="No progress bar.")
+@click.option("--no-progress", is_flag=True, help="No progress display (CI); the summary lines stay.")
+@click.option("--quiet", is_flag=True, help="Only the final line and errors.")
 @click.option("--diagnosis", "diagnosis_file", type=click.Path(dir_okay=False, path_type=Path),
               default=Path("reports/diagnose/diagnosis.json"), show_default=True,
               help="A diagnosis.json to fold into the report as its own section (skipped if absent).")
-def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool,
+def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_progress: bool, quiet: bool,
              diagnosis_file: Path) -> None:
     """Run cases against their logs, check gates and findings: `validate all` or `validate CASE...`.
 
     Exit status: 0 every gate passes and every finding is as expected; 1 a gate
     fails or a finding changed; 2 a case is bad input; 3 a case's simulation
     failed numerically (the highest applies)."""
-    from workbench.report import finding_message, gate_message, write_report
+    from workbench.progress import Progress
+    # the display comes up first: the imports and case loading below take seconds
+    progress = Progress("validate", enabled=not (no_progress or quiet))
+    progress.doing("loading the model code")
+    from workbench.report import REPORT_STEPS, finding_message, gate_message, write_report
     from workbench.validate import results_dict, validate_cases
     paths = case_paths(targets)
-    t0 = time.perf_counter()
-    outcomes = validate_cases(paths, workers=workers, progress=not no_progress)
+    outcomes = validate_cases(paths, workers=workers, progress=progress)
     results = results_dict(outcomes)
-    wall = time.perf_counter() - t0
+    wall = progress.elapsed_s
     results["wall_s"] = wall
+    progress.add(REPORT_STEPS, "writing the report")
     sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
-    files = write_report(outcomes, results, out_dir, wall, extra_sections=sections)
+    files = write_report(outcomes, results, out_dir, wall, extra_sections=sections,
+                         step=lambda what: progress.done(f"wrote {what}"))
+    progress.close()
     cases = results["cases"]
     gates = [g for c in cases for g in c["gates"]]
     findings = [f for c in cases for f in c["findings"]]
-    click.echo(f"{len(outcomes)} cases, {sum(g['passed'] for g in gates)}/{len(gates)} gates pass, "
-               f"{sum(f['passed'] for f in findings)}/{len(findings)} findings as expected, {wall:.1f} s; "
-               f"report {files['html']}")
     for c in cases:
         if c["error"]:
             click.echo(f"ERROR {c['id']}: did not run: {c['error']}", err=True)
@@ -83,6 +86,9 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
         for f in c["findings"]:
             if not f["passed"]:
                 click.echo(f"CHANGED {finding_message(c['id'], f)}", err=True)
+    click.echo(f"{len(outcomes)} cases, {sum(g['passed'] for g in gates)}/{len(gates)} gates pass, "
+               f"{sum(f['passed'] for f in findings)}/{len(findings)} findings as expected; report {files['html']}; "
+               f"total {progress.elapsed_s:.1f} s (runs {wall:.1f} s, report {progress.elapsed_s - wall:.1f} s)")
     codes = [c["error_code"] for c in cases if c["error"]]
     if codes:
         sys.exit(max(codes))

@@ -1,0 +1,41 @@
+"""One progress display for a whole command, from its first second to its
+last: a tqdm line on stderr whose total grows as the work becomes known
+(tuning, calibration, runs, report writing), naming the step under way."""
+from __future__ import annotations
+
+import sys
+import time
+
+from tqdm import tqdm
+
+
+class Progress:
+    """`add(n, what)` announces n more steps; `doing(what)` names the step under
+    way; `done(what)` finishes one. Disabled, it prints nothing (CI, --quiet)."""
+
+    def __init__(self, desc: str, enabled: bool = True):
+        self.t0 = time.perf_counter()
+        self._bar = tqdm(total=0, desc=desc, unit="step", disable=not enabled, file=sys.stderr, leave=True,
+                         bar_format="{desc}: {n_fmt}/{total_fmt} steps [{elapsed}]{postfix}", mininterval=0.5)
+        self._bar.refresh()   # on screen at once, before any heavy import or computing
+
+    def add(self, n: int, what: str = "") -> None:
+        self._bar.total += n
+        if what:
+            self._bar.set_postfix_str(what, refresh=False)
+        self._bar.refresh()
+
+    def doing(self, what: str) -> None:
+        self._bar.set_postfix_str(what)
+
+    def done(self, what: str = "") -> None:
+        if what:
+            self._bar.set_postfix_str(what, refresh=False)
+        self._bar.update(1)
+
+    def close(self) -> None:
+        self._bar.close()
+
+    @property
+    def elapsed_s(self) -> float:
+        return time.perf_counter() - self.t0
