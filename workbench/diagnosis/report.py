@@ -23,7 +23,7 @@ import numpy as np
 from workbench.diagnosis.result import Diagnosis
 from workbench.provenance import ROOT, file_sha256
 from workbench.report.document import (Cell, Contents, Document, Figure, Heading, Para, Table, anchor, esc,
-                                       figure_png, fmt)
+                                       figure_png, fmt, legend_below)
 from workbench.diagnosis.setup import NOISE_FACTOR, PARAM_PENALTY
 
 
@@ -170,9 +170,7 @@ def _ranking_figure(name: str, d: dict):
     ax2.set_xlabel("calibrated parameter (the effect's own scale, -)")
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3, axis="x")
-    handles = [h for ax in (ax1, ax2) for h in ax.get_legend_handles_labels()[0]]
-    names = [lab for ax in (ax1, ax2) for lab in ax.get_legend_handles_labels()[1]]
-    fig.legend(handles, names, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=5, fontsize=8, frameon=False)
+    legend_below(fig, [ax1, ax2], ncol=5)
     fig.tight_layout()
     return Figure(figure_png(fig), f"{esc(name)}: gap after each candidate explanation (held out: bars; training: "
                                    "ticks) and the top five candidates' calibrated parameters with ±1 standard "
@@ -203,8 +201,7 @@ def _before_after_figure(name: str, d: dict):
         ax.set_yscale("log")
         ax.grid(alpha=0.3, axis="y")
     axes[0].set_ylabel("gap (m)")
-    h, lab = axes[0].get_legend_handles_labels()
-    fig.legend(h, lab, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=3, fontsize=8, frameon=False)
+    legend_below(fig, axes[0], ncol=3)
     fig.tight_layout()
     return Figure(figure_png(fig), f"{esc(name)}: the gap per channel before and after the best explanation, "
                                    "per log (from the where-maps; diagnosis.json holds no time histories to overlay).",

@@ -43,14 +43,14 @@ def write_report(outcomes, results: dict, out_dir: Path, wall_s: float, extra_se
     (and the figures as PNG files under figures/, for slides). `extra_sections`
     are lists of blocks, each starting with a level-1 heading. `step(what)` is
     called as each of the REPORT_STEPS steps finishes."""
-    from workbench.report.content import build_document
+    from workbench.report.content import build_document, log_hashes
     from workbench.report.figures import case_figures, save_pngs
     from workbench.report.html import render_html
     from workbench.report.pdf import write_pdf
     step = step or (lambda what: None)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    results["provenance"] = run_provenance()
+    results["provenance"] = {**run_provenance(), "log_sha256": log_hashes(results["cases"])}
     figures = {cj["id"]: case_figures(oc) for oc, cj in zip(outcomes, results["cases"])}
     save_pngs([f for fs in figures.values() for f in fs], out_dir / "figures")
     step("figures")

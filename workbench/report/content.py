@@ -119,7 +119,7 @@ def verdict_blocks(results: dict, cases: list[dict], wall_s: float) -> list:
              f"{_dt.datetime.now(_dt.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}.", "meta"),
         Para(esc(results.get("data_note", "")), "note"),
         Table(["case", "variant", "metric", "value", "threshold", "margin", "result", "14 CFR Part 60", "source"],
-              gate_rows, [12, 8, 17, 7, 7, 7, 6, 11, 25], title="Gates: acceptance checks",
+              gate_rows, [12, 7, 16, 6, 6, 6, 5, 11, 31], title="Gates: acceptance checks",
               row_class="gate-row",
               note="A gate is an acceptance check the model must pass; its threshold cites its source, and the "
                    "Part 60 objective-test tolerance stands beside it where one exists."),
@@ -219,10 +219,10 @@ def run_provenance(case: dict, log_hashes: dict) -> Table:
     for r in case["runs"]:
         opts = " ".join(f"{esc(k)}={esc(fmt(v))}" for k, v in r["model_options"].items())
         rows.append([r["variant"], Cell(esc(r["log_file"]), "small"),
-                     Cell(esc(log_hashes.get(r["log_file"], "–")), "small"), "yes" if r["held_out"] else "no",
+                     Cell(esc(log_hashes.get(r["log_file"], "–")).replace(" ", "<br/>"), "small"), "yes" if r["held_out"] else "no",
                      Cell(opts, "small"), r["wall_s"]])
     return Table(["variant", "log file", "SHA-256", "held out", "model options", "wall (s)"], rows,
-                 [10, 20, 26, 7, 30, 7], title="Runs: inputs and options")
+                 [9, 20, 36, 6, 22, 7], title="Runs: inputs and options")
 
 
 def case_blocks(case: dict, figures: list, log_hashes: dict) -> list:
@@ -267,13 +267,18 @@ def provenance_blocks(prov: dict) -> list:
 
 
 def log_hashes(cases: list[dict]) -> dict[str, str]:
-    """SHA-256 of every log file the runs name (ring-down runs name their records' files)."""
+    """SHA-256 of every log file the runs name, by the name the run gives (a
+    ring-down run names its records' files, comma-separated, found under the
+    project's log folder; several hashes then, in that order)."""
+    from workbench.hardware import DEFAULT_PATH
     out = {}
     for c in cases:
         for r in c["runs"]:
-            p = ROOT / r["log_file"]
-            if p.is_file():
-                out[r["log_file"]] = file_sha256(p)
+            name = r["log_file"]
+            files = [ROOT / name] if (ROOT / name).is_file() else \
+                [next(DEFAULT_PATH.parent.rglob(n), None) for n in name.split(", ")]
+            if files and all(f is not None for f in files):
+                out[name] = " ".join(file_sha256(f) for f in files)
     return out
 
 
@@ -285,7 +290,7 @@ def build_document(cases: list[dict], results: dict, wall_s: float, sections=(),
     doc.add(*properties_blocks(results["provenance"]))
     for s in sections:
         doc.add(*s)
-    hashes = log_hashes(cases)
+    hashes = results["provenance"]["log_sha256"]
     for c in cases:
         doc.add(*case_blocks(c, (case_figures or {}).get(c["id"], []), hashes))
     doc.add(*provenance_blocks(results["provenance"]))

@@ -101,6 +101,18 @@ class Document:
         return [b for b in self.blocks if isinstance(b, Heading) and b.level <= 2]
 
 
+def legend_below(fig, axes, ncol: int = 3) -> None:
+    """One legend for the figure, under its axes (never over the data), each label once."""
+    import numpy as np
+    seen = {}
+    for ax in np.atleast_1d(axes).ravel():
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    if seen:
+        fig.legend(list(seen.values()), list(seen.keys()), loc="upper center", bbox_to_anchor=(0.5, 0.0),
+                   ncol=min(ncol, len(seen)), fontsize=8, frameon=False)
+
+
 def figure_png(fig, dpi: int = 110) -> bytes:
     """A matplotlib figure as PNG bytes (the figure is closed)."""
     buf = io.BytesIO()

@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 
 from flighttest import read_record  # noqa: E402
 from flighttest.compare import engagement_moments  # noqa: E402
-from workbench.report.document import Figure, esc, figure_png  # noqa: E402
+from workbench.report.document import Figure, esc, figure_png, legend_below  # noqa: E402
 
 COLORS = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
 LINESTYLES = ["-", "--", "-.", ":", (0, (5, 1, 1, 1))]
@@ -28,17 +28,6 @@ COINCIDE_M = 0.01   # curves closer than this everywhere are reported as coincid
 
 def _style(i: int) -> dict:
     return {"color": COLORS[i % len(COLORS)], "ls": LINESTYLES[i % len(LINESTYLES)]}
-
-
-def _legend_below(fig, axes, ncol: int = 3) -> None:
-    """One legend for the figure under its axes, each label once."""
-    seen = {}
-    for ax in np.atleast_1d(axes).ravel():
-        for h, lab in zip(*ax.get_legend_handles_labels()):
-            seen.setdefault(lab, h)
-    if seen:
-        fig.legend(list(seen.values()), list(seen.keys()), loc="upper center", bbox_to_anchor=(0.5, 0.0),
-                   ncol=min(ncol, len(seen)), fontsize=8, frameon=False)
 
 
 def _block(fig, name: str, caption: str) -> Figure:
@@ -95,7 +84,7 @@ def doublet_figures(outcome) -> list[Figure]:
         ax.set_xlabel("time (s)")
         ax.set_ylabel("drogue z (m, up from the tow point)")
         ax.grid(alpha=0.3)
-        _legend_below(fig, ax, ncol=2)
+        legend_below(fig, ax, ncol=2)
         out.append(_block(fig, f"{outcome.case.id}-{log_id}-drogue-z",
                           f"{esc(log_id)}: drogue height through the tanker pitch doublet, flight against each "
                           f"model variant (paper Fig. 11).{_coinciding(curves)}"))
@@ -125,7 +114,7 @@ def trail_figures(outcome) -> list[Figure]:
         ax.set_xlabel("x aft of the tow point (m)")
         ax.set_ylabel("z (m, up)")
         ax.grid(alpha=0.3)
-        _legend_below(fig, ax, ncol=2)
+        legend_below(fig, ax, ncol=2)
         out.append(_block(fig, f"{outcome.case.id}-{log_id}-trail",
                           f"{esc(log_id)}: steady trail, hose points from the chase video against each model "
                           "variant's static hose (paper Fig. 13-15)."))
@@ -182,7 +171,7 @@ def engagement_figures(outcome) -> list[Figure]:
         for ax in axes.ravel():
             ax.set_xlabel("time (s)")
             ax.grid(alpha=0.3)
-        _legend_below(fig, axes, ncol=3)
+        legend_below(fig, axes, ncol=3)
         out.append(_block(fig, f"{case.id}-{log_id}-engagement",
                           f"{esc(log_id)}: reel payout, drogue motion, hose shape error and probe load through "
                           "the engagement (paper Fig. 17-18)."))
@@ -203,7 +192,7 @@ def engagement_figures(outcome) -> list[Figure]:
             ax.set_xlabel("x aft of the tow point (m)")
         for ax in axes[:, 0]:
             ax.set_ylabel("z (m, up)")
-        _legend_below(fig, axes, ncol=3)
+        legend_below(fig, axes, ncol=3)
         out.append(_block(fig, f"{case.id}-{log_id}-progression",
                           f"{esc(log_id)}: the hose at the paper's six moments of the engagement, video points "
                           "against each model variant (paper Fig. 19)."))
@@ -241,7 +230,7 @@ def ringdown_figures(outcome) -> list[Figure]:
         for ax in axes:
             ax.set_xlabel("hose temperature (°F)")
             ax.grid(alpha=0.3)
-        _legend_below(fig, axes, ncol=2)
+        legend_below(fig, axes, ncol=2)
         out.append(_block(fig, f"{outcome.case.id}-fig9",
                           f"{esc(hose)}: bending ring-downs, bench test against the {n}-element model with the "
                           "property table at each tested temperature (paper Fig. 9)."))
