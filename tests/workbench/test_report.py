@@ -84,6 +84,20 @@ def test_html_is_one_file_with_inline_figures_resolving_anchors_and_no_absolute_
     assert "SHA-256" in html and "flighttest/logs/flight/TR-KDC10-E7.mcap" in html
 
 
+def test_diagnosis_html_has_the_report_style_figures_and_provenance():
+    from workbench.diagnosis.report import diagnosis_html
+    js = json.loads((ROOT / "reports" / "diagnose" / "diagnosis.json").read_text())
+    js["selftest"] = json.loads((ROOT / "reports" / "diagnose" / "selftest.json").read_text())
+    html = diagnosis_html(js)
+    assert "<style>" in html and "table-layout: fixed" in html
+    srcs = re.findall(r'<img src="([^"]*)"', html)
+    # per family: ranking, where-map, before/after; and the selftest's confusion matrix
+    assert len(srcs) == 3 * len(js["families"]) + 1
+    assert all(s.startswith("data:image/png;base64,") for s in srcs)
+    assert "Provenance" in html and "SHA-256" in html and "flighttest/logs/flight/PD-G3-1.mcap" in html
+    assert str(ROOT) not in html and "/tmp/" not in html
+
+
 def test_quiet_prints_only_the_final_line_with_the_total_time(report):
     res, out, _ = report
     (line,) = res.output.strip().splitlines()

@@ -34,13 +34,18 @@ def write_diagnosis(diag: Diagnosis, out_dir: Path) -> dict[str, Path]:
     js = _clean(diag.to_json())
     files = {"json": out_dir / "diagnosis.json", "html": out_dir / "diagnosis.html"}
     files["json"].write_text(json.dumps(js, indent=1) + "\n")
+    files["html"].write_text(diagnosis_html(js), encoding="utf-8")
+    return files
+
+
+def diagnosis_html(js: dict) -> str:
+    """diagnosis.html from the diagnosis.json content: validate's templates and
+    style, the figures inline, and the provenance of the inputs and the code."""
     from workbench.report import run_provenance
     from workbench.report.html import render_html
     doc = Document("Sim-to-real gap diagnosis").add(Contents(), *report_blocks(js))
-    prov = run_provenance()
-    doc.add(*diagnosis_provenance(js, prov))
-    files["html"].write_text(render_html(doc), encoding="utf-8")
-    return files
+    doc.add(*diagnosis_provenance(js, run_provenance()))
+    return render_html(doc)
 
 
 def write_selftest(result: dict, out_dir: Path) -> Path:

@@ -262,8 +262,8 @@ def provenance_blocks(prov: dict) -> list:
                  f"{esc(table['code_version'])}; "
                  + (f"the code that built them has changed since ({esc(', '.join(changed))})." if changed else
                     "the code that built them is unchanged since.")),
-            Para(f"Paths are relative to the project folder ({esc(ROOT.name)}/); each run's log file is listed "
-                 "with its SHA-256 on its case's page.", "note")]
+            Para("Paths are relative to the project folder; each run's log file is listed with its SHA-256 on "
+                 "its case's page (and in results.json).", "note")]
 
 
 def log_hashes(cases: list[dict]) -> dict[str, str]:
