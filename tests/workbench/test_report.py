@@ -2,6 +2,7 @@
 nothing off the page), the HTML is one file (figures inline, anchors that
 resolve, no absolute paths), the objective tests carry E ± u_val, and the
 progress display and the final line."""
+import io
 import json
 import math
 import re
@@ -104,13 +105,21 @@ def test_quiet_prints_only_the_final_line_with_the_total_time(report):
     assert line.startswith("1 cases, 3/3 gates pass, 1/1 findings as expected") and re.search(r"total \d+\.\d s", line)
 
 
-def test_progress_is_on_screen_when_made(capsys):
-    p = Progress("validate")
-    p.add(2, "tuning")
-    p.done()
-    p.close()
-    err = capsys.readouterr().err
-    assert "validate: 0/0 steps" in err and "1/2 steps" in err and "tuning" in err
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_is_on_screen_when_made_and_silent_in_a_pipe():
+    term, pipe = _Terminal(), io.StringIO()
+    for stream in (term, pipe):
+        p = Progress("validate", stream=stream)
+        p.add(2, "tuning")
+        p.done()
+        p.close()
+    assert "validate: 0/0 steps" in term.getvalue() and "1/2 steps" in term.getvalue()
+    assert "tuning" in term.getvalue()
+    assert pipe.getvalue() == ""
 
 
 def test_layout_checks_find_overprinted_and_off_page_text(tmp_path):

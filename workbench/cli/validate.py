@@ -62,17 +62,21 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
     # the display comes up first: the imports and case loading below take seconds
     progress = Progress("validate", enabled=not (no_progress or quiet))
     progress.doing("loading the model code")
-    from workbench.report import REPORT_STEPS, finding_message, gate_message, write_report
-    from workbench.validate import results_dict, validate_cases
-    paths = case_paths(targets)
-    outcomes = validate_cases(paths, workers=workers, progress=progress)
-    results = results_dict(outcomes)
-    wall = progress.elapsed_s
-    results["wall_s"] = wall
-    progress.add(REPORT_STEPS, "writing the report")
-    sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
-    files = write_report(outcomes, results, out_dir, wall, extra_sections=sections,
-                         step=lambda what: progress.done(f"wrote {what}"))
+    try:
+        from workbench.report import REPORT_STEPS, finding_message, gate_message, write_report
+        from workbench.validate import results_dict, validate_cases
+        paths = case_paths(targets)
+        outcomes = validate_cases(paths, workers=workers, progress=progress)
+        results = results_dict(outcomes)
+        wall = progress.elapsed_s
+        results["wall_s"] = wall
+        progress.add(REPORT_STEPS, "writing the report")
+        sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
+        files = write_report(outcomes, results, out_dir, wall, extra_sections=sections,
+                             step=lambda what: progress.done(f"wrote {what}"))
+    except BaseException:
+        progress.close(keep=False)   # the error's one line stands alone
+        raise
     progress.close()
     cases = results["cases"]
     gates = [g for c in cases for g in c["gates"]]
