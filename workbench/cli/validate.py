@@ -63,14 +63,14 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, no_pr
     progress = Progress("validate", enabled=not (no_progress or quiet))
     progress.doing("loading the model code")
     try:
-        from workbench.report import REPORT_STEPS, finding_message, gate_message, write_report
+        from workbench.report import finding_message, gate_message, report_steps, write_report
         from workbench.validate import results_dict, validate_cases
         paths = case_paths(targets)
         outcomes = validate_cases(paths, workers=workers, progress=progress)
         results = results_dict(outcomes)
         wall = progress.elapsed_s
         results["wall_s"] = wall
-        progress.add(REPORT_STEPS, "writing the report")
+        progress.add(report_steps(len(outcomes)), "writing the report")
         sections = [_diagnosis_section(diagnosis_file)] if diagnosis_file.exists() else []
         files = write_report(outcomes, results, out_dir, wall, extra_sections=sections,
                              step=lambda what: progress.done(f"wrote {what}"))

@@ -15,9 +15,12 @@ from typing import Callable
 from workbench.report.document import fmt
 from workbench.report.junit import finding_message, gate_message, junit_xml
 
-__all__ = ["finding_message", "fmt", "gate_message", "junit_xml", "run_provenance", "write_report"]
+__all__ = ["finding_message", "fmt", "gate_message", "junit_xml", "report_steps", "run_provenance", "write_report"]
 
-REPORT_STEPS = 4   # figures, HTML, PDF, results.json and junit.xml: the steps `write_report` reports
+
+def report_steps(n_cases: int) -> int:
+    """The steps `write_report` reports: each case's figures, the HTML, the PDF, results.json with junit.xml."""
+    return n_cases + 3
 
 
 def run_provenance() -> dict:
@@ -42,7 +45,7 @@ def write_report(outcomes, results: dict, out_dir: Path, wall_s: float, extra_se
     """Write report.html, report.pdf, results.json and junit.xml under out_dir
     (and the figures as PNG files under figures/, for slides). `extra_sections`
     are lists of blocks, each starting with a level-1 heading. `step(what)` is
-    called as each of the REPORT_STEPS steps finishes."""
+    called as each of the `report_steps` steps finishes."""
     from workbench.report.content import build_document, log_hashes
     from workbench.report.figures import case_figures, save_pngs
     from workbench.report.html import render_html
@@ -51,9 +54,11 @@ def write_report(outcomes, results: dict, out_dir: Path, wall_s: float, extra_se
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     results["provenance"] = {**run_provenance(), "log_sha256": log_hashes(results["cases"])}
-    figures = {cj["id"]: case_figures(oc) for oc, cj in zip(outcomes, results["cases"])}
-    save_pngs([f for fs in figures.values() for f in fs], out_dir / "figures")
-    step("figures")
+    figures = {}
+    for oc, cj in zip(outcomes, results["cases"]):
+        figures[cj["id"]] = case_figures(oc)
+        save_pngs(figures[cj["id"]], out_dir / "figures")
+        step(f"the figures of {cj['id']}")
     doc = build_document(results["cases"], results, wall_s, sections=extra_sections, case_figures=figures)
     paths = {"html": out_dir / "report.html", "pdf": out_dir / "report.pdf",
              "json": out_dir / "results.json", "junit": out_dir / "junit.xml"}
