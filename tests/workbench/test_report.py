@@ -16,7 +16,7 @@ from numpy.testing import assert_allclose
 from workbench.cli import cli
 from workbench.progress import Progress
 from workbench.provenance import ROOT
-from workbench.report.objective import U_NUM_DAMPING, U_NUM_FREQUENCY, objective_tables
+from workbench.report.objective import objective_tables
 
 sys.path.insert(0, str(Path(__file__).parent))
 from pdf_layout import off_page, overprinted_glyphs  # noqa: E402
@@ -149,20 +149,21 @@ def test_objective_table_gives_e_and_its_validation_uncertainty():
     case = {"kind": "pitch_doublet", "runs": runs,
             "gates": [{"metric": "drogue_steady_z_error_m", "variant": "m", "logs": ["L1"], "kind": "max",
                        "threshold": 0.3, "passed": True}]}
-    tables = objective_tables(case)
+    bounds = {"frequency": 0.5, "damping": 2.0}   # u_num in % of the model's value
+    tables = objective_tables(case, bounds)
     assert [t.title for t in tables] == ["Objective tests: L1", "Objective tests: L2", "Objective tests: L3"]
     rows = {r[1]: r for r in tables[0].rows}
     # period: D = 1/0.40 s, S = 1/0.44 s; u_D the spread of the three logs' periods
     _, _, d, s, e, u_d, u_num, u_val, gate, p60 = rows["period (s)"]
     periods = [1 / f for f, _ in logs.values()]
     sd = math.sqrt(sum((p - sum(periods) / 3) ** 2 for p in periods) / 2)
-    assert_allclose([d, s, e, u_d, u_num], [2.5, 1 / 0.44, 1 / 0.44 - 2.5, sd, U_NUM_FREQUENCY / 0.44], rtol=1e-12)
-    assert_allclose(u_val, math.hypot(sd, U_NUM_FREQUENCY / 0.44), rtol=1e-12)
+    assert_allclose([d, s, e, u_d, u_num], [2.5, 1 / 0.44, 1 / 0.44 - 2.5, sd, 0.005 / 0.44], rtol=1e-12)
+    assert_allclose(u_val, math.hypot(sd, 0.005 / 0.44), rtol=1e-12)
     # Part 60: period within 10 % (0.25 s); E = -0.227 s is within
     assert p60.style == "pass" and "within" in p60.text
     # damping: E = 0.03 is outside Part 60's 0.02
     _, _, d, s, e, u_d, u_num, *_, p60 = rows["damping ratio (-)"]
-    assert_allclose([e, u_num], [0.03, U_NUM_DAMPING * 0.13], rtol=1e-12)
+    assert_allclose([e, u_num], [0.03, 0.02 * 0.13], rtol=1e-12)
     # equal damping on the three logs: no spread, to the rounding of np.std
     assert_allclose(u_d, 0.0, atol=1e-15)
     assert p60.style == "fail"

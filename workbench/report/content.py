@@ -7,7 +7,7 @@ import datetime as _dt
 
 from workbench.provenance import ROOT, file_sha256
 from workbench.report.document import (Cell, Contents, Document, Heading, Para, Table, anchor, esc, fmt)
-from workbench.report.objective import U_NUM_DAMPING, U_NUM_FREQUENCY, objective_tables
+from workbench.report.objective import objective_tables
 
 # per case kind: the run metrics tabulated per run (name, row label)
 TABLE_METRICS = {
@@ -19,7 +19,7 @@ TABLE_METRICS = {
     "trail": [("drogue_steady_x_m_log", "flight x (m)"), ("drogue_steady_x_m_sim", "model x (m)"),
               ("drogue_steady_z_m_log", "flight z (m)"), ("drogue_steady_z_m_sim", "model z (m)"),
               ("trail_shape_rms_error_m", "shape RMS error (m)"), ("trail_shape_max_error_m", "shape max error (m)")],
-    "ringdown": [("test", "test"), ("temperature_F", "T (°F)"), ("n_elements", "N"),
+    "ringdown": [("temperature_F", "T (°F)"), ("n_elements", "N"),
                  ("frequency_measured_hz", "bench f (Hz)"), ("frequency_simulated_hz", "model f (Hz)"),
                  ("frequency_error_pct", "f error (%)"), ("damping_measured", "bench ζ (-)"),
                  ("damping_simulated", "model ζ (-)"), ("damping_error_pct", "ζ error (%)"),
@@ -74,8 +74,8 @@ GLOSSARY_TERMS = [
     ("u_D", "The data's uncertainty: the sample standard deviation of D over repetitions (a bench setpoint's "
             "repeated ring-downs; the case's logs of the same test: three doublets, four trails, two "
             "engagements); for an RMS error, that error's spread over the case's logs. '–' with one repetition."),
-    ("u_num", f"The numerical error: for period and damping the property tables' bench verification bound "
-              f"({100 * U_NUM_FREQUENCY:g} % of the frequency, {100 * U_NUM_DAMPING:g} % of the damping; "
+    ("u_num", "The numerical error: for period and damping the property tables' bench verification bound "
+              "({frequency:g} % of the frequency, {damping:g} % of the damping; verification_tolerance_pct of "
               "cases/properties/hose_properties.json); for positions and shapes no element-count or step study "
               "is stored and 0 is used."),
     ("u_input", "The input uncertainty: not propagated (0 used). The calibrated parameters' standard errors are "
@@ -131,12 +131,12 @@ def verdict_blocks(results: dict, cases: list[dict], wall_s: float) -> list:
     ]
 
 
-def glossary_blocks() -> list:
+def glossary_blocks(bounds_pct: dict) -> list:
     return [Heading(1, "Glossary", "glossary"),
             Table(["variant", "meaning"], [[Cell(f"<b>{esc(k)}</b>"), Cell(esc(v))] for k, v in GLOSSARY_VARIANTS],
                   [25, 75], title="Model variants"),
-            Table(["term", "meaning"], [[Cell(f"<b>{esc(k)}</b>"), Cell(esc(v))] for k, v in GLOSSARY_TERMS],
-                  [20, 80], title="Metrics and terms")]
+            Table(["term", "meaning"], [[Cell(f"<b>{esc(k)}</b>"), Cell(esc(v.format(**bounds_pct)))]
+                                        for k, v in GLOSSARY_TERMS], [20, 80], title="Metrics and terms")]
 
 
 def properties_blocks(prov: dict) -> list:
@@ -193,8 +193,8 @@ def run_table(case: dict) -> list[Table]:
     if not cols or not runs:
         return []
     if _kind(case) == "ringdown":
-        rows = [[r["log"]] + [r["metrics"].get(k) for k, _ in cols[1:]] for r in runs]
-        return [Table(["setpoint"] + [h for _, h in cols[1:]], rows, [22] + [9] * (len(cols) - 1),
+        rows = [[r["log"]] + [r["metrics"].get(k) for k, _ in cols] for r in runs]
+        return [Table(["setpoint"] + [h for _, h in cols], rows, [22] + [9] * len(cols),
                       title="Results per bench setpoint")]
     header = ["metric"] + [f"{esc(r['variant'])}<br/>{esc(r['log'])}" for r in runs]
     rows = [[Cell(esc(h))] + [r["metrics"].get(k) for r in runs] for k, h in cols]
@@ -225,7 +225,7 @@ def run_provenance(case: dict, log_hashes: dict) -> Table:
                  [9, 20, 36, 6, 22, 7], title="Runs: inputs and options")
 
 
-def case_blocks(case: dict, figures: list, log_hashes: dict) -> list:
+def case_blocks(case: dict, figures: list, log_hashes: dict, bounds_pct: dict) -> list:
     gates = [[g["variant"], Cell(esc(g["metric"])), g["value"], Cell(f"{g['kind']} {esc(fmt(g['threshold']))}"),
               g["margin"], _pf(g["passed"]), Cell(esc(g["source"]), "small"),
               Cell(esc(g["part60"] or "–"), "small")] for g in case["gates"]]
@@ -243,7 +243,7 @@ def case_blocks(case: dict, figures: list, log_hashes: dict) -> list:
     if findings:
         out.append(Table(["variant", "metric", "value", "expected", "band", "status", "source"], findings,
                          [10, 17, 8, 8, 8, 10, 39], title="Findings"))
-    out += objective_tables(case)
+    out += objective_tables(case, bounds_pct)
     out += table1(case) + run_table(case)
     out += figures
     out.append(run_provenance(case, log_hashes))
@@ -286,13 +286,15 @@ def build_document(cases: list[dict], results: dict, wall_s: float, sections=(),
     doc = Document("Hose-and-drogue validation report")
     doc.add(*verdict_blocks(results, cases, wall_s))
     doc.add(Heading(1, "Contents", "contents"), Contents())
-    doc.add(*glossary_blocks())
+    from workbench.properties.store import read_properties
+    bounds_pct = read_properties()["verification_tolerance_pct"]
+    doc.add(*glossary_blocks(bounds_pct))
     doc.add(*properties_blocks(results["provenance"]))
     for s in sections:
         doc.add(*s)
     hashes = results["provenance"]["log_sha256"]
     for c in cases:
-        doc.add(*case_blocks(c, (case_figures or {}).get(c["id"], []), hashes))
+        doc.add(*case_blocks(c, (case_figures or {}).get(c["id"], []), hashes, bounds_pct))
     doc.add(*provenance_blocks(results["provenance"]))
     return doc
 

@@ -10,8 +10,8 @@ comparison error E = S - D, and u_val = sqrt(u_D² + u_num² + u_input²):
   engagements). For a quantity that is itself an error (an RMS over a time
   history or a shape), the spread of that error over the case's logs.
 - u_num, the numerical error: the bench verification bound of the property
-  tables (frequency 0.5 %, damping 2 % of the value: `cases/properties`,
-  `verification_tolerance_pct`) for period and damping; for positions and
+  tables (`verification_tolerance_pct` of cases/properties/hose_properties.json:
+  frequency 0.5 %, damping 2 % of the value) for period and damping; for positions and
   shapes no element-count or step study is stored, and 0 is used.
 - u_input: not propagated (0 used). The calibrated parameters' standard
   errors, the one input uncertainty estimated, are printed with the case.
@@ -32,8 +32,6 @@ import numpy as np
 
 from workbench.report.document import Cell, Table, esc, fmt
 
-U_NUM_FREQUENCY = 0.005   # the property tables' verification bound, as a fraction of the value
-U_NUM_DAMPING = 0.02
 
 
 @dataclass(frozen=True)
@@ -41,7 +39,7 @@ class Quantity:
     label: str
     log: Callable[[dict], float | None]       # D from a run's metrics
     sim: Callable[[dict], float | None]       # S
-    u_num: Callable[[float], float]           # of S
+    u_num: str | None                         # the verification bound of S (a key of the bounds), None: 0
     part60: Callable[[float], float] | None   # allowed |E| at D, None where Part 60 has no tolerance
     part60_text: str
     gate_metric: str | None                   # the case's gate on this comparison
@@ -63,10 +61,6 @@ def _period(key: str):
     return get
 
 
-def _zero(_):
-    return 0.0
-
-
 def _error_only(key: str) -> tuple:
     """A quantity that is itself a comparison error: D is 0, S is the error."""
     return (lambda m: 0.0 if _num(m.get(key)) is not None else None), _m(key)
@@ -80,39 +74,39 @@ _TIME_HISTORY = None, "time history: within a stated band (none stated)"
 QUANTITIES: dict[str, list[Quantity]] = {
     "pitch_doublet": [
         Quantity("period (s)", _period("drogue_frequency_hz_log"), _period("drogue_frequency_hz_sim"),
-                 lambda s: U_NUM_FREQUENCY * s, *_PERIOD_10PCT, "drogue_frequency_error_pct"),
+                 "frequency", *_PERIOD_10PCT, "drogue_frequency_error_pct"),
         Quantity("damping ratio (-)", _m("drogue_damping_ratio_log"), _m("drogue_damping_ratio_sim"),
-                 lambda s: U_NUM_DAMPING * s, *_DAMPING_002, "drogue_damping_error_pct"),
-        Quantity("steady drogue z (m)", _m("drogue_steady_z_m_log"), _m("drogue_steady_z_m_sim"), _zero, *_NONE,
+                 "damping", *_DAMPING_002, "drogue_damping_error_pct"),
+        Quantity("steady drogue z (m)", _m("drogue_steady_z_m_log"), _m("drogue_steady_z_m_sim"), None, *_NONE,
                  "drogue_steady_z_error_m"),
-        Quantity("z response RMS error (m)", *_error_only("drogue_z_response_rms_error_m"), _zero, *_TIME_HISTORY,
+        Quantity("z response RMS error (m)", *_error_only("drogue_z_response_rms_error_m"), None, *_TIME_HISTORY,
                  "drogue_z_response_rms_error_m", error_only=True),
     ],
     "trail": [
-        Quantity("steady drogue x (m)", _m("drogue_steady_x_m_log"), _m("drogue_steady_x_m_sim"), _zero, *_NONE,
+        Quantity("steady drogue x (m)", _m("drogue_steady_x_m_log"), _m("drogue_steady_x_m_sim"), None, *_NONE,
                  "drogue_steady_x_error_m"),
-        Quantity("steady drogue y (m)", _m("drogue_steady_y_m_log"), _m("drogue_steady_y_m_sim"), _zero, *_NONE,
+        Quantity("steady drogue y (m)", _m("drogue_steady_y_m_log"), _m("drogue_steady_y_m_sim"), None, *_NONE,
                  "drogue_steady_y_error_m"),
-        Quantity("steady drogue z (m)", _m("drogue_steady_z_m_log"), _m("drogue_steady_z_m_sim"), _zero, *_NONE,
+        Quantity("steady drogue z (m)", _m("drogue_steady_z_m_log"), _m("drogue_steady_z_m_sim"), None, *_NONE,
                  "drogue_steady_z_error_m"),
-        Quantity("hose shape RMS error (m)", *_error_only("trail_shape_rms_error_m"), _zero, *_TIME_HISTORY,
+        Quantity("hose shape RMS error (m)", *_error_only("trail_shape_rms_error_m"), None, *_TIME_HISTORY,
                  "trail_shape_rms_error_m", error_only=True),
     ],
     "engagement": [
-        Quantity("transverse wave speed (m/s)", _m("wave_speed_mps_log"), _m("wave_speed_mps_sim"), _zero, *_NONE,
+        Quantity("transverse wave speed (m/s)", _m("wave_speed_mps_log"), _m("wave_speed_mps_sim"), None, *_NONE,
                  "wave_speed_error_pct"),
-        Quantity("reel delay behind the drogue (s)", _m("reel_delay_s_log"), _m("reel_delay_s_sim"), _zero, *_NONE,
+        Quantity("reel delay behind the drogue (s)", _m("reel_delay_s_log"), _m("reel_delay_s_sim"), None, *_NONE,
                  None),
-        Quantity("shape RMS error before contact (m)", *_error_only("shape_rms_error_pre_contact_m"), _zero,
+        Quantity("shape RMS error before contact (m)", *_error_only("shape_rms_error_pre_contact_m"), None,
                  *_TIME_HISTORY, "shape_rms_error_pre_contact_m", error_only=True),
-        Quantity("shape RMS error engaged (m)", *_error_only("shape_rms_error_engaged_m"), _zero, *_TIME_HISTORY,
+        Quantity("shape RMS error engaged (m)", *_error_only("shape_rms_error_engaged_m"), None, *_TIME_HISTORY,
                  "shape_rms_error_engaged_m", error_only=True),
     ],
     "ringdown": [
         Quantity("period (s)", _period("frequency_measured_hz"), _period("frequency_simulated_hz"),
-                 lambda s: U_NUM_FREQUENCY * s, *_PERIOD_10PCT, "frequency_error_pct"),
+                 "frequency", *_PERIOD_10PCT, "frequency_error_pct"),
         Quantity("damping ratio (-)", _m("damping_measured"), _m("damping_simulated"),
-                 lambda s: U_NUM_DAMPING * s, *_DAMPING_002, "damping_error_pct"),
+                 "damping", *_DAMPING_002, "damping_error_pct"),
     ],
 }
 
@@ -143,9 +137,11 @@ def _gate_text(case: dict, q: Quantity, variant: str, log_id: str) -> Cell:
                 "pass" if g["passed"] else "fail")
 
 
-def objective_tables(case: dict) -> list[Table]:
+def objective_tables(case: dict, bounds_pct: dict[str, float]) -> list[Table]:
     """One table per log (per bench setpoint for ring-downs): each variant's
-    quantities with E, its uncertainties and the tolerances beside it."""
+    quantities with E, its uncertainties and the tolerances beside it.
+    `bounds_pct`: the property tables' verification bounds in % of the value
+    ({"frequency": .., "damping": ..}), taken as u_num."""
     kind = "ringdown" if case["kind"].startswith("ringdown") else case["kind"]
     qs = QUANTITIES.get(kind)
     if not qs or not case["runs"]:
@@ -163,7 +159,7 @@ def objective_tables(case: dict) -> list[Table]:
                     continue
                 e = s - d
                 u_d = _u_data(q, case["runs"], r)
-                u_n = q.u_num(s)
+                u_n = bounds_pct[q.u_num] / 100.0 * abs(s) if q.u_num else 0.0
                 u_val = math.sqrt((u_d or 0.0) ** 2 + u_n ** 2)
                 if q.part60 is None:
                     p60 = Cell(esc(q.part60_text), "small")
