@@ -44,7 +44,7 @@ GLOSSARY_VARIANTS = [
     ("wt_lift", "The paper's reference model with the wind-tunnel drogue lift (lift scale 1)."),
     ("tuned_lift", "The drogue lift scale tuned (least squares on the static drogue height) on the logs the "
                    "variant names, and checked on the others; the paper's practice."),
-    ("diagnosed", "The effects `workbench diagnose` found to explain the gap (e.g. the drogue lift, the tanker "
+    ("diagnosed", "The effects workbench diagnose found to explain the gap (e.g. the drogue lift, the tanker "
                   "wake), their parameters calibrated on the variant's training logs and gated on the others."),
     ("locked / constant_tension / measured", "The reel study's reel models: locked drum, the idealised "
                                              "constant-tension reel (paper Eq. 12), the flight reel's payout."),
@@ -60,7 +60,7 @@ GLOSSARY_TERMS = [
                        "10 %, damping ratio within 0.02, time histories within stated bands), shown beside the "
                        "paper's gates for comparison."),
     ("f, ζ", "The drogue's (or bench hose's) fundamental frequency (Hz) and damping ratio, from the free decay "
-             "(`flighttest.analyze`); period = 1/f."),
+             "(flighttest.analyze); period = 1/f."),
     ("steady x, y, z", "The drogue's mean position relative to the tow point (x aft, y right, z up, m) before the "
                        "excitation or contact."),
     ("shape RMS error", "RMS of the normal distances of the video hose points from the simulated hose (m), over "
