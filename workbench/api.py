@@ -11,6 +11,7 @@ from workbench.diagnosis import DEFAULT_ELEMENTS, Diagnosis
 from workbench.diagnosis import diagnose as _diagnose
 from workbench.effects_case import with_effects
 from workbench.run import RunOutcome, run_case
+from workbench.progress import Progress
 from workbench.validate import CaseOutcome, validate_cases
 
 __all__ = ["load_case", "run", "validate", "diagnose"]
@@ -38,7 +39,7 @@ def validate(cases: str | Path | list, *, workers: int | None = None,
     one `CaseOutcome` per case (`.passed`, `.gates`, `.findings`, `.runs`,
     `.to_pandas()`, `.plot()`); no report is written."""
     paths = [Path(cases)] if isinstance(cases, (str, Path)) else [Path(c) for c in cases]
-    return validate_cases(paths, workers=workers, progress=progress)
+    return validate_cases(paths, workers=workers, progress=Progress("validate", enabled=progress))
 
 
 def diagnose(logs: str | Path | list, *, n_elements: int = DEFAULT_ELEMENTS,

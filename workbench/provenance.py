@@ -51,6 +51,16 @@ def read_text_limited(path: str | Path, what: str, max_bytes: int = MAX_TEXT_BYT
         raise InputError(f"{p}: cannot read the {what} ({exc.strerror or exc})") from None
 
 
+def project_path(path: str | Path) -> str:
+    """`path` relative to the project (a results file names no folder of the
+    machine that wrote it); a file outside the project by its name alone."""
+    p = Path(path)
+    try:
+        return p.resolve().relative_to(ROOT).as_posix()
+    except ValueError:
+        return p.name
+
+
 def file_sha256(path: str | Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 

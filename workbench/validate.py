@@ -32,7 +32,8 @@ from workbench.effects_compare import apply_comparison_effects
 from workbench.errors import EXIT_BAD_INPUT, InputError, exit_code_for
 from workbench.gates import FindingResult, GateResult, evaluate_findings, evaluate_gates
 from workbench.parallel import Mapper
-from workbench.provenance import code_version, json_safe
+from workbench.progress import Progress
+from workbench.provenance import code_version, json_safe, project_path
 from workbench.simlog import result_to_record
 from workbench.simulate import simulate_case
 
@@ -206,11 +207,12 @@ def tune_drogue_lift(case: Case, variant: dict, records: list[FlightRecord]) -> 
     return float(res.x)
 
 
-def validate_cases(case_paths: list[Path], workers: int | None = None, progress: bool = True,
+def validate_cases(case_paths: list[Path], workers: int | None = None, progress: Progress | None = None,
                    scheduler: str | None = None) -> list[CaseOutcome]:
     """Run every case's runs (in parallel over local processes, or on the Dask
-    cluster at `scheduler`) and gate them."""
-    from tqdm import tqdm
+    cluster at `scheduler`) and gate them; each tuning, calibration and run is
+    a step of `progress`."""
+    bar = progress or Progress("validate", enabled=False)
     cases = [load_case(p) for p in case_paths]
     seen: dict[str, str] = {}
     for c in cases:
@@ -221,6 +223,7 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
     outcomes: dict[str, CaseOutcome] = {}
     jobs = []
     for case in cases:
+        bar.doing(f"{case.id}: reading its logs")
         paths = case_log_paths(case)
         if not paths:
             outcomes[case.id] = CaseOutcome(case, [], [], error="the case names no logs")
@@ -250,11 +253,15 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
                         raise InputError(f"{case.path}: variant '{v['id']}' {key} names logs {v[key]} not all "
                                          f"among the case's logs")
                 if v.get("tune_drogue_lift_on"):
+                    bar.add(1, f"{case.id}: tuning {v['id']}")
                     tr = [r for r in records.values() if r.info.test_id in v["tune_drogue_lift_on"]]
                     tuned[v["id"]] = tune_drogue_lift(case, v, tr)
+                    bar.done()
                 if v.get("calibrate"):
+                    bar.add(1, f"{case.id}: calibrating {v['id']}")
                     tr = [p for p, r in records.items() if r.info.test_id in v["calibrate_on"]]
                     calibrated[v["id"]] = calibrate_variant(case, v, tr)
+                    bar.done()
                     v = dict(v, effects=calibrated[v["id"]]["effects"])
                 variants.append(v)
         except (LogError, InputError, StaticSolveError, DivergenceError, SimulationFailed) as exc:
@@ -264,10 +271,9 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
         for v in variants:
             for p in paths:
                 jobs.append((case, v, p, tuned))
-    bar = tqdm(total=len(jobs), desc="validate", unit="run", disable=not progress)
+    bar.add(len(jobs), f"{len(jobs)} runs")
     with Mapper(workers, scheduler) as mapper:
-        done = mapper(_guarded_run, jobs, progress=lambda _: bar.update(1))
-    bar.close()
+        done = mapper(_guarded_run, jobs, progress=lambda _: bar.done())
     for job, (run, error) in zip(jobs, done):
         _collect(outcomes, job, run, error)
     for oc in outcomes.values():
@@ -316,12 +322,12 @@ def results_dict(outcomes: list[CaseOutcome]) -> dict:
     cases = []
     for oc in outcomes:
         cases.append({
-            "id": oc.case.id, "title": oc.case.title, "kind": oc.case.kind, "file": oc.case.path,
+            "id": oc.case.id, "title": oc.case.title, "kind": oc.case.kind, "file": project_path(oc.case.path),
             "passed": oc.passed, "error": oc.error, "error_code": oc.error_code, "tuned": oc.tuned,
             "calibrated": oc.calibrated,
             "metrics": {f"{r.variant}/{r.log_id}/{k}": v for r in oc.runs for k, v in r.metrics.items()
                         if not isinstance(v, (list, dict))},
-            "runs": [{"variant": r.variant, "log": r.log_id, "log_file": r.log_path, "held_out": r.held_out,
+            "runs": [{"variant": r.variant, "log": r.log_id, "log_file": project_path(r.log_path), "held_out": r.held_out,
                       "wall_s": r.wall_s, "model_options": r.model_options, "metrics": r.metrics}
                      for r in oc.runs],
             "gates": [{"metric": g.metric, "variant": g.variant, "value": g.value, "threshold": g.threshold,

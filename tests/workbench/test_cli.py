@@ -226,7 +226,7 @@ def test_every_engagement_metric_with_the_hose_whip_is_produced_by_a_validate_ru
     src = (ROOT / "cases" / "kdc10_engagement7.toml").read_text()
     src = src[:src.index("[[variants]]")].replace("n_elements = 40", "n_elements = 12")
     src = re.sub(r"(?m)^logs = .*$", 'logs = ["flight/EN-KDC10-E7.mcap"]', src)
-    (oc,) = validate_cases([case_file(tmp_path, src)], workers=1, progress=False)
+    (oc,) = validate_cases([case_file(tmp_path, src)], workers=1)
     assert oc.error is None, oc.error
     (run,) = oc.runs
     for name in METRICS["engagement"]:

@@ -15,7 +15,9 @@ from flighttest import make_record, read_record, write_record
 from solver.hose import HoseProperties
 from solver.model import Model
 from solver.properties import PropertyLibrary, PropertyTable
-from workbench import hardware, report
+from workbench import hardware
+from workbench.report import run_provenance
+from workbench.report.content import properties_blocks
 from workbench.cli.properties import properties
 from workbench.hardware import load_hardware
 from workbench.properties import build, store
@@ -317,7 +319,7 @@ def test_build_refuses_an_unwritable_out_before_computing(tmp_path, monkeypatch)
 def test_report_names_the_code_that_built_the_committed_table(doc):
     git = doc["code_version"]["git"]
     assert git
-    assert f"(code {git})" in report.properties_section()["html"]
+    assert any(f"at code {git}" in getattr(b, "text", "") for b in properties_blocks(run_provenance()))
 
 
 # ---- loaders read a file once per version of it -------------------------------------------

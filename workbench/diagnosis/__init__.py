@@ -23,10 +23,10 @@ Modules by concern, data flowing down the list:
 from workbench.errors import SimulationFailed
 from workbench.diagnosis.fit import EffectCalibrator, LeaveOneLogOut, TimeBlocks
 from workbench.diagnosis.rank import diagnose, diagnose_family
-from workbench.diagnosis.report import report_section, write_diagnosis, write_selftest
+from workbench.diagnosis.report import report_blocks, write_diagnosis, write_selftest
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.setup import DEFAULT_ELEMENTS, Setup
 
 __all__ = ["Candidate", "DEFAULT_ELEMENTS", "Diagnosis", "EffectCalibrator", "FamilyDiagnosis", "LeaveOneLogOut",
-           "Setup", "SimulationFailed", "TimeBlocks", "diagnose", "diagnose_family", "report_section",
+           "Setup", "SimulationFailed", "TimeBlocks", "diagnose", "diagnose_family", "report_blocks",
            "write_diagnosis", "write_selftest"]

@@ -1,10 +1,19 @@
 """The diagnosis's reporters: diagnosis.json, diagnosis.html and the blind
-selftest's selftest.json, written where the CLI says; and the HTML section
-validate's report embeds. Compute (`rank.diagnose`, `selftest.run_selftest`)
-returns results; only this module writes them."""
+selftest's selftest.json, written where the CLI says; and the section
+validate's report embeds, as report blocks (`workbench.report.document`) so
+that diagnosis.html, validate's HTML and its PDF render it alike. Compute
+(`rank.diagnose`, `selftest.run_selftest`) returns results; only this module
+writes them.
+
+The section draws from diagnosis.json alone: the where-map as heat maps
+(gap over noise floor by channel, phase, station and band), the ranking as a
+table and the calibrated parameters with their standard errors, the gap per
+channel before and after the best explanation, and the selftest's confusion
+matrix. diagnosis.json holds no time histories, so the best explanation is not
+overlaid on the log's traces here (`workbench validate` draws the calibrated
+variant over the logs)."""
 from __future__ import annotations
 
-import html as _html
 import json
 import math
 from pathlib import Path
@@ -12,6 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from workbench.diagnosis.result import Diagnosis
+from workbench.provenance import ROOT, file_sha256
+from workbench.report.document import (Cell, Contents, Document, Figure, Heading, Para, Table, anchor, esc,
+                                       figure_png, fmt, legend_below)
 from workbench.diagnosis.setup import NOISE_FACTOR, PARAM_PENALTY
 
 
@@ -22,10 +34,18 @@ def write_diagnosis(diag: Diagnosis, out_dir: Path) -> dict[str, Path]:
     js = _clean(diag.to_json())
     files = {"json": out_dir / "diagnosis.json", "html": out_dir / "diagnosis.html"}
     files["json"].write_text(json.dumps(js, indent=1) + "\n")
-    sec = report_section(js)
-    files["html"].write_text(f"<!doctype html><meta charset='utf-8'><title>{sec['title']}</title><body>"
-                             f"<h1>{sec['title']}</h1>{sec['html']}</body>", encoding="utf-8")
+    files["html"].write_text(diagnosis_html(js), encoding="utf-8")
     return files
+
+
+def diagnosis_html(js: dict) -> str:
+    """diagnosis.html from the diagnosis.json content: validate's templates and
+    style, the figures inline, and the provenance of the inputs and the code."""
+    from workbench.report import run_provenance
+    from workbench.report.html import render_html
+    doc = Document("Sim-to-real gap diagnosis").add(Contents(), *report_blocks(js))
+    doc.add(*diagnosis_provenance(js, run_provenance()))
+    return render_html(doc)
 
 
 def write_selftest(result: dict, out_dir: Path) -> Path:
@@ -52,83 +72,240 @@ def _clean(v):
     return v
 
 
-def _f(v, fmt="{:.3f}"):
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "&ndash;"
-    return fmt.format(v)
 
 
 def _params_text(c) -> str:
-    """A diagnosis.json ranking entry's parameters (a single effect's without
-    the effect's level) with their standard errors."""
+    """A ranking entry's parameters (a single effect's without the effect's
+    level) with their standard errors, as inline markup."""
     if not c.get("params"):
-        return ""
+        return "–"
     p, s = c["params"], c["param_stderr"]
     if len(c["effects"]) == 1:
         p, s = {c["effect"]: p}, {c["effect"]: s}
-    return "; ".join(f"{e}.{k} = {v:.3g} &plusmn; {s[e][k]:.2g}" for e, d in p.items() for k, v in d.items())
+    return "<br/>".join(f"{esc(e)}.{esc(k)} = {v:.3g} ± {s[e][k]:.2g}" for e, d in p.items() for k, v in d.items())
 
 
-def _where_paragraph(head: str, w: dict) -> str:
-    """One log's where-map as a paragraph: channels, phases, stations, bands."""
-    e = _html.escape
-    cells = ", ".join(f"{e(k)} {_f(v['gap_m'])}/{_f(v['floor_m'])}{'' if v['real'] else ' (noise)'}"
-                      for k, v in w["by_channel"].items())
-    ph = ", ".join(f"{e(p['phase'])} {_f(p['gap_m'])}{'' if p['real'] else ' (noise)'}" for p in w["by_phase"])
-    st = ""
-    if w.get("by_station"):
-        st = "; by station (m along the hose: mean residual) " + ", ".join(
-            f"{r['station_from_m']:.0f}-{r['station_to_m']:.0f}: {r['mean_m']:+.2f}" for r in w["by_station"])
-    bz = w["by_band"].get("drogue z", {})
-    bands = ", ".join(f"{k} {_f(v['residual_m'])}/{_f(v['floor_m'])}" for k, v in bz.items())
-    return (f"<p><b>{e(head)}</b>: gap {_f(w['gap_m'])} m (floor {_f(w['noise_floor_m'])}); by channel "
-            f"(gap/floor) {cells}; by phase {ph}{st}; drogue z by band around "
-            f"{_f(w['fundamental_hz'], '{:.2f}')} Hz (residual/log's own) {bands}.</p>")
+def _heat(ax, values, rows, cols, title, annotate):
+    """A heat map of gap / noise floor (log colour scale), each cell annotated."""
+    from matplotlib.colors import LogNorm
+    v = np.array(values, float)
+    im = ax.imshow(np.clip(v, 0.1, None), aspect="auto", cmap="viridis", norm=LogNorm(vmin=0.5, vmax=max(2.0, np.nanmax(v))))
+    ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right", fontsize=7)
+    ax.set_yticks(range(len(rows)), rows, fontsize=7)
+    ax.set_title(title, fontsize=9)
+    for i in range(v.shape[0]):
+        for j in range(v.shape[1]):
+            if np.isfinite(v[i, j]):
+                ax.text(j, i, annotate[i][j], ha="center", va="center", fontsize=6,
+                        color="white" if v[i, j] < 30 else "black")
+    return im
 
 
-def report_section(diag: dict, title: str = "Sim-to-real gap diagnosis") -> dict:
-    """{"title", "html"} for validate's report (or diagnosis.html), from the
+def _where_figure(name: str, d: dict):
+    """Heat maps of one family's baseline where-map: per log, each channel's,
+    phase's and station's gap over its noise floor, and per channel the
+    residual in each frequency band (mean over the logs) over the floor."""
+    from matplotlib.figure import Figure as MplFigure
+    logs = list(d["gap"])
+    maps = [d["gap"][k] for k in logs]
+    panels = []
+    chans = list(maps[0]["by_channel"])
+    panels.append(("by channel", chans, [[m["by_channel"][c]["gap_m"] / m["by_channel"][c]["floor_m"] for c in chans]
+                                         for m in maps], [[m["by_channel"][c]["gap_m"] for c in chans] for m in maps]))
+    phases = [p["phase"] for p in maps[0]["by_phase"]]
+    if len(phases) > 1:
+        panels.append(("by phase", phases, [[p["gap_m"] / p["floor_m"] for p in m["by_phase"]] for m in maps],
+                       [[p["gap_m"] for p in m["by_phase"]] for m in maps]))
+    if maps[0].get("by_station"):
+        st = [f"{r['station_from_m']:.0f}-{r['station_to_m']:.0f} m" for r in maps[0]["by_station"]]
+        panels.append(("by station along the hose", st,
+                       [[r["gap_m"] / r["floor_m"] for r in m["by_station"]] for m in maps],
+                       [[r["gap_m"] for r in m["by_station"]] for m in maps]))
+    bchan = list(maps[0]["by_band"])
+    bands = list(maps[0]["by_band"][bchan[0]])
+    band_ratio = [[np.mean([abs(m["by_band"][c][b]["residual_m"]) / m["by_band"][c][b]["floor_m"] for m in maps])
+                   for b in bands] for c in bchan]
+    band_gap = [[np.mean([abs(m["by_band"][c][b]["residual_m"]) for m in maps]) for b in bands] for c in bchan]
+    fig = MplFigure(figsize=(11, 2.3 + 0.35 * len(logs) + 1.2 * ((len(panels) + 1) > 2)))
+    axes = fig.subplots(1, len(panels) + 1, gridspec_kw={"width_ratios": [len(p[1]) + 1 for p in panels]
+                                                         + [len(bands) + 1]})
+    im = None
+    for ax, (title, cols, ratio, gap) in zip(axes, panels):
+        im = _heat(ax, ratio, logs, cols, title, [[f"{g:.2f}" for g in row] for row in gap])
+    _heat(axes[-1], band_ratio, bchan, [b.replace("_", " ") for b in bands], "by band (mean of the logs)",
+          [[f"{g:.2f}" for g in row] for row in band_gap])
+    for ax in axes[1:len(panels)]:
+        ax.set_yticklabels([])
+    cb = fig.colorbar(im, ax=list(axes), orientation="horizontal", fraction=0.06, pad=0.35, aspect=60)
+    cb.set_label("gap / noise floor (-); cells: gap (m)", fontsize=8)
+    return Figure(figure_png(fig), f"{esc(name)}: where the baseline's gap lies. Colour: gap over the log's own "
+                                   f"noise floor (below {NOISE_FACTOR:g}: noise); numbers: the gap in metres.",
+                  f"diagnosis-{name.replace('/', '-')}-where")
+
+
+def _ranking_figure(name: str, d: dict):
+    """Held-out gap per candidate against the baseline gap and the noise
+    floor, and the calibrated parameters with ±1 standard error."""
+    from matplotlib.figure import Figure as MplFigure
+    rank = d["ranking"]
+    fig = MplFigure(figsize=(11, 0.9 + 0.32 * max(len(rank), 4)))
+    ax1, ax2 = fig.subplots(1, 2)
+    y = np.arange(len(rank))[::-1]
+    ax1.barh(y, [c["gap_after_heldout"] or np.nan for c in rank], color="tab:blue", label="held out")
+    ax1.plot([c["gap_after_train"] for c in rank], y, "k|", ms=10, label="training")
+    ax1.axvline(d["gap_before"], color="tab:red", ls="--", lw=1, label="baseline gap")
+    ax1.axvline(NOISE_FACTOR * d["noise_floor"], color="0.4", ls=":", lw=1,
+                label=f"{NOISE_FACTOR:g} × noise floor")
+    ax1.set_xscale("log")
+    ax1.set_yticks(y, [c["effect"] for c in rank], fontsize=7)
+    ax1.set_xlabel("gap after calibration (m)")
+    labels, vals, errs = [], [], []
+    for c in rank[:5]:
+        p, s = c["params"], c["param_stderr"]
+        if len(c["effects"]) == 1:
+            p, s = {c["effect"]: p}, {c["effect"]: s}
+        for e, ps in p.items():
+            for k, v in ps.items():
+                labels.append(f"{c['effect']}: {e}.{k}")
+                vals.append(v)
+                errs.append(s[e][k])
+    yy = np.arange(len(labels))[::-1]
+    ax2.errorbar(vals, yy, xerr=errs, fmt="o", color="tab:green", capsize=3, label="value ± 1 s.e.")
+    ax2.set_yticks(yy, labels, fontsize=7)
+    ax2.set_xlabel("calibrated parameter (the effect's own scale, -)")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3, axis="x")
+    legend_below(fig, [ax1, ax2], ncol=5)
+    fig.tight_layout()
+    return Figure(figure_png(fig), f"{esc(name)}: gap after each candidate explanation (held out: bars; training: "
+                                   "ticks) and the top five candidates' calibrated parameters with ±1 standard "
+                                   "error (bars smaller than the marker are not drawn wider).",
+                  f"diagnosis-{name.replace('/', '-')}-ranking")
+
+
+def _before_after_figure(name: str, d: dict):
+    """Per log and channel: the gap of the baseline and with the best explanation."""
+    from matplotlib.figure import Figure as MplFigure
+    after = d.get("gap_after_best") or {}
+    if not after:
+        return None
+    logs = list(d["gap"])
+    chans = list(d["gap"][logs[0]]["by_channel"])
+    fig = MplFigure(figsize=(11, 2.8))
+    axes = fig.subplots(1, len(logs), sharey=True, squeeze=False)[0]
+    x = np.arange(len(chans))
+    for ax, log in zip(axes, logs):
+        b = [d["gap"][log]["by_channel"][c]["gap_m"] for c in chans]
+        a = [after[log]["by_channel"][c]["gap_m"] for c in chans]
+        fl = [after[log]["by_channel"][c]["floor_m"] for c in chans]
+        ax.bar(x - 0.2, b, 0.4, color="tab:red", label="baseline")
+        ax.bar(x + 0.2, a, 0.4, color="tab:blue", label=f"with {d['ranking'][0]['effect']}")
+        ax.plot(x, [NOISE_FACTOR * f for f in fl], "k_", ms=14, label=f"{NOISE_FACTOR:g} × noise floor")
+        ax.set_xticks(x, chans, fontsize=7, rotation=20)
+        ax.set_title(log, fontsize=9)
+        ax.set_yscale("log")
+        ax.grid(alpha=0.3, axis="y")
+    axes[0].set_ylabel("gap (m)")
+    legend_below(fig, axes[0], ncol=3)
+    fig.tight_layout()
+    return Figure(figure_png(fig), f"{esc(name)}: the gap per channel before and after the best explanation, "
+                                   "per log (from the where-maps; diagnosis.json holds no time histories to overlay).",
+                  f"diagnosis-{name.replace('/', '-')}-before-after")
+
+
+def _confusion_figure(st: dict):
+    """The blind selftest: the withheld effect against the effect ranked first."""
+    from matplotlib.figure import Figure as MplFigure
+    rows = st.get("rows") or []
+    if not rows:
+        return None
+    truth = sorted({r["effect"] for r in rows})
+    top = truth + sorted({r["top"] for r in rows} - set(truth))
+    m = np.zeros((len(truth), len(top)), int)
+    for r in rows:
+        m[truth.index(r["effect"]), top.index(r["top"])] += 1
+    fig = MplFigure(figsize=(8, 0.9 + 0.45 * len(truth)))
+    ax = fig.subplots()
+    ax.imshow(m, cmap="Blues", aspect="auto")
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            if m[i, j]:
+                ax.text(j, i, str(m[i, j]), ha="center", va="center", fontsize=8,
+                        color="white" if m[i, j] > m.max() / 2 else "black")
+    ax.set_xticks(range(len(top)), top, rotation=30, ha="right", fontsize=7)
+    ax.set_yticks(range(len(truth)), truth, fontsize=7)
+    ax.set_xlabel("effect the diagnosis ranked first")
+    ax.set_ylabel("effect withheld in the log")
+    fig.tight_layout()
+    return Figure(figure_png(fig), f"Blind selftest: confusion matrix of {st['n']} generated logs (counts; the "
+                                   "diagonal is a right answer).", "diagnosis-selftest-confusion")
+
+
+def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
+    """The diagnosis as report blocks (a level-1 heading first), from the
     diagnosis.json content (`Diagnosis.to_json()`, or the file read back)."""
-    e = _html.escape
-    parts = [f"<p>Gap per family (m, defined below), before and after each effect, calibrated on training "
-             f"data and scored held out; ranked by held-out gap &times; (1 + {PARAM_PENALTY:g} per parameter). "
-             f"A gap under {NOISE_FACTOR:g}&times; its noise floor is noise. Scheduler: "
-             f"{e(str(diag.get('scheduler')))}.</p>"]
+    out = [Heading(1, esc(title), "diagnosis"),
+           Para(f"Gap per family (m, defined per family), before and after each candidate effect, calibrated on "
+                f"training data and scored held out; ranked by held-out gap × (1 + {PARAM_PENALTY:g} per "
+                f"parameter). A gap under {NOISE_FACTOR:g}× its noise floor is noise. Scheduler: "
+                f"{esc(diag.get('scheduler'))}.")]
     for name, d in diag["families"].items():
-        parts.append(f"<h3>{e(name)}: {e(', '.join(d['logs']))}</h3>")
-        parts.append(f"<p>{e(d['gap_definition'])}. Baseline gap {_f(d['gap_before'])} m against a noise floor of "
-                     f"{_f(d['noise_floor'])} m ({'real' if d['gap_real'] else 'within noise'}); held out by "
-                     f"{e(d['held_out_scheme'])}; {d['n_elements']} elements; {d['wall_s']:.0f} s.</p>")
-        rows = "".join(
-            f"<tr><td>{i + 1}</td><td>{e(c['effect'])}</td><td>{_params_text(c)}</td><td>{_f(c['gap_before'])}</td>"
-            f"<td>{_f(c['gap_after_train'])}</td><td>{_f(c['gap_after_heldout'])}</td>"
-            f"<td>{_f(100 * c['shrink_heldout'] if c.get('shrink_heldout') is not None else None, '{:.0f} %')}</td></tr>"
-            for i, c in enumerate(d["ranking"]))
-        parts.append("<table><tr><th>#</th><th>effect</th><th>parameters (&plusmn; 1 s.e.)</th><th>gap before</th>"
-                     "<th>after, train</th><th>after, held out</th><th>held-out shrink</th></tr>" + rows + "</table>")
+        prob = any("probability" in c for c in d["ranking"])
+        out += [Heading(2, esc(name), f"diagnosis-{anchor(name)}"),
+                Para(f"Logs {esc(', '.join(d['logs']))}. {esc(d['gap_definition'])}. Baseline gap "
+                     f"{fmt(d['gap_before'])} m against a noise floor of {fmt(d['noise_floor'])} m "
+                     f"({'real' if d['gap_real'] else 'within noise'}); held out by {esc(d['held_out_scheme'])}; "
+                     f"{d['n_elements']} elements; {d['wall_s']:.0f} s.")]
+        rows = [[i + 1, Cell(esc(c["effect"])), Cell(_params_text(c), "small"), c["gap_before"],
+                 c["gap_after_train"], c["gap_after_heldout"],
+                 None if c.get("shrink_heldout") is None else 100 * c["shrink_heldout"]]
+                + ([c.get("probability")] if prob else []) for i, c in enumerate(d["ranking"])]
+        out.append(Table(["#", "effect", "parameters (± 1 s.e.)", "gap before (m)", "after, training (m)",
+                          "after, held out (m)", "held-out shrink (%)"] + (["probability"] if prob else []),
+                         rows, [4, 20, 30, 10, 10, 10, 10] + ([8] if prob else []), title="Ranking",
+                         row_class="ranking-row"))
+        out.append(_ranking_figure(name, d))
         if d.get("failed"):
-            parts.append("<p>Failed, not ranked: " + "; ".join(f"{e(c['effect'])} ({e(c['message'])})"
-                                                              for c in d["failed"]) + ".</p>")
-        parts.append(f"<p>Remaining after the best: {_f(d['remaining_unexplained']['gap_m'])} m, of which "
-                     f"{_f(d['remaining_unexplained']['above_noise_m'])} m above the noise floor. Screen (share of "
-                     f"the residual each effect's sensitivities span): "
-                     + ", ".join(f"{e(k)} {v:.2f}" for k, v in d["screen"].items()) + ". Not calibrated: "
-                     + "; ".join(f"{e(k)} ({e(v)})" for k, v in d["not_applicable"].items()) + ".</p>")
-        for log, w in d["gap"].items():
-            parts.append(_where_paragraph(f"{log}, baseline", w))
-        for log, w in (d.get("gap_after_best") or {}).items():
-            parts.append(_where_paragraph(f"{log}, with {d['ranking'][0]['effect']}", w))
+            out.append(Para("Failed, not ranked: " + "; ".join(f"{esc(c['effect'])} ({esc(c['message'])})"
+                                                             for c in d["failed"]) + "."))
+        out.append(Para(f"Remaining after the best: {fmt(d['remaining_unexplained']['gap_m'])} m, of which "
+                        f"{fmt(d['remaining_unexplained']['above_noise_m'])} m above the noise floor."))
+        out.append(Table(["effect", "screen share", "or why not calibrated"],
+                         [[Cell(esc(k)), v, Cell("–")] for k, v in d["screen"].items()]
+                         + [[Cell(esc(k)), None, Cell(esc(v), "small")] for k, v in d["not_applicable"].items()],
+                         [20, 12, 68], title="Screen: the share of the residual each effect's sensitivities span"))
+        out.append(_where_figure(name, d))
+        ba = _before_after_figure(name, d)
+        if ba is not None:
+            out.append(ba)
     if diag.get("findings"):
-        parts.append("<h3>Findings</h3><ul>" + "".join(f"<li>{e(s)}</li>" for s in diag["findings"]) + "</ul>")
+        out += [Heading(2, "Findings of the diagnosis", "diagnosis-findings"),
+                Table(["finding"], [[Cell(esc(s))] for s in diag["findings"]], [100])]
     if diag.get("selftest"):
         s = diag["selftest"]
-        kinds = "; ".join(f"{e(k)}: {v['n']} logs, top-1 {100 * v['top1']:.0f} %, median shrink "
-                          f"{100 * v['median_shrink']:.0f} %" for k, v in s.get("by_kind", {}).items())
-        parts.append(f"<h3>Proof on withheld effects</h3><p>{s['n']} generated logs (the solver with one library "
-                     f"effect at random parameters, light turbulence, sensor noise and dropouts; "
-                     f"{s.get('n_elements_truth', '?')} elements against the diagnosis's "
-                     f"{s.get('n_elements_diagnosis', '?')}), effect withheld: right effect first in "
-                     f"{100 * s['top1']:.0f} %, median held-out shrink {100 * s['median_shrink']:.0f} % "
-                     f"(at least 70 % in {100 * s.get('share_shrink_ge_70pct', float('nan')):.0f} % of the logs); "
-                     f"{kinds}; {s['wall_s']:.0f} s.</p>")
-    return {"title": title, "html": "\n".join(parts)}
+        out += [Heading(2, "Proof on withheld effects", "diagnosis-selftest"),
+                Para(f"{s['n']} generated logs (the solver with one library effect at random parameters, light "
+                     f"turbulence, sensor noise and dropouts; {s.get('n_elements_truth', '?')} elements against the "
+                     f"diagnosis's {s.get('n_elements_diagnosis', '?')}), effect withheld: right effect first in "
+                     f"{100 * s['top1']:.0f} %, median held-out shrink {100 * s['median_shrink']:.0f} % (at least "
+                     f"70 % in {100 * s.get('share_shrink_ge_70pct', float('nan')):.0f} % of the logs); "
+                     f"{s['wall_s']:.0f} s."),
+                Table(["kind", "logs", "right effect first (%)", "median held-out shrink (%)"],
+                      [[Cell(esc(k)), v["n"], 100 * v["top1"], 100 * v["median_shrink"]]
+                       for k, v in s.get("by_kind", {}).items()], [40, 20, 20, 20])]
+        cm = _confusion_figure(s)
+        if cm is not None:
+            out.append(cm)
+    return out
+
+
+def diagnosis_provenance(diag: dict, prov: dict) -> list:
+    """The inputs (log files with their SHA-256) and the code of a diagnosis."""
+    deps = ", ".join(f"{esc(k)} {esc(v or 'not installed')}" for k, v in prov["dependencies"].items())
+    rows = [[Cell(esc(p)), Cell(esc(file_sha256(ROOT / p)) if (ROOT / p).is_file() else "–", "small")]
+            for p in diag.get("logs", [])]
+    return [Heading(1, "Provenance", "provenance"),
+            Para(f"Rendered with code {esc(prov['code_version'])} "
+                 f"({'uncommitted changes in the tree' if prov['dirty'] else 'clean tree'}); Python "
+                 f"{esc(prov['python'])}; {deps}."),
+            Table(["log file", "SHA-256"], rows, [40, 60], title="Logs diagnosed")]

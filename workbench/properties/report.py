@@ -10,7 +10,7 @@ Everything is drawn from the property document (`workbench.properties.store`,
 - `figure_element_length`: constants x element length against element length
   (how the tuned constants follow from element length).
 
-Paper Fig. 9 is drawn from the validation runs (`workbench.figures`).
+Paper Fig. 9 is drawn from the validation runs (`workbench.report.figures`).
 
 Figures are `matplotlib.figure.Figure` objects (no pyplot state); the caller
 saves or embeds them.
@@ -23,6 +23,7 @@ from matplotlib.ticker import NullFormatter
 from scipy.interpolate import CubicSpline
 
 from solver.properties import PropertyTable
+from workbench.report.document import legend_below
 
 
 def _prov(doc: dict, hose: str) -> dict:
@@ -75,7 +76,7 @@ def figure_measured(doc: dict, hose: str) -> Figure:
     ax2.set_ylabel("damping ratio (log decrement)")
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+    legend_below(fig, [ax1, ax2])
     rig = p["bench_rig"]["bending"]
     fig.suptitle(f"{hose}: bench bending ring-downs, {rig['section_length_m']} m cantilever")
     fig.tight_layout()
@@ -103,7 +104,7 @@ def figure_element_constants(doc: dict, hose: str) -> Figure:
         ax.set_xlabel("temperature (F)")
         ax.set_ylabel(labels[name])
         ax.grid(alpha=0.3, which="both")
-    axes[0].legend(fontsize=7, ncol=2)
+    legend_below(fig, axes[0], ncol=5)
     title = f"{hose}: element constants (circles: tuned; lines: cubic spline in temperature)"
     if p["status"] == "derived":
         title = (f"{hose} (DERIVED from {p['derived_from']} x {p['scale_factor']:.3f}, "
@@ -139,7 +140,7 @@ def figure_element_length(doc: dict, hose: str) -> Figure:
     ax2.set_ylabel("k_b l (o), c_b l (s), over the shortest element's")
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3, which="both")
-    ax1.legend(fontsize=7, loc="upper right")
+    legend_below(fig, ax1, ncol=5)
     fig.suptitle(f"{hose}: tuned bending constants against element length", fontsize=10)
     fig.tight_layout()
     return fig
