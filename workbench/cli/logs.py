@@ -107,17 +107,23 @@ def inspect_text(path: str, record: FlightRecord) -> str:
     return "\n".join(lines)
 
 
+def _log_files(command):
+    """FILES, --json and --salvage: what every `logs` verb takes."""
+    for option in reversed((
+            click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False)),
+            click.option("--json", "as_json", is_flag=True, help="One JSON object per file, keyed by the file name."),
+            click.option("--salvage", is_flag=True, help="Read the complete records of a file cut inside a record."))):
+        command = option(command)
+    return command
+
+
 @click.group()
 def logs() -> None:
     """Inspect and analyze flight and bench logs."""
 
 
 @logs.command("inspect")
-@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--json", "as_json", is_flag=True,
-              help="One JSON object per file, keyed by the file name.")
-@click.option("--salvage", is_flag=True,
-              help="Read the complete records of a file cut inside a record.")
+@_log_files
 def inspect_cmd(files: tuple[str, ...], as_json: bool, salvage: bool) -> None:
     """Summarise test card, topics, rates, gaps and dropouts of each FILE."""
     for i, path in enumerate(files):
@@ -137,11 +143,7 @@ def _fmt(value) -> str:
 
 
 @logs.command("analyze")
-@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
-@click.option("--json", "as_json", is_flag=True,
-              help="One JSON object per file, keyed by the file name.")
-@click.option("--salvage", is_flag=True,
-              help="Read the complete records of a file cut inside a record.")
+@_log_files
 def analyze_cmd(files: tuple[str, ...], as_json: bool, salvage: bool) -> None:
     """Measure each FILE on its own (frequencies, damping, steady positions, ...)."""
     from flighttest.analyze import analyze_record
