@@ -85,6 +85,25 @@ def axial_spring_guess(rig: BenchRig, n_elements: int, f_hz: float, zeta: float)
     return EA / l, 2.0 * zeta * EA / w / l
 
 
+def _tune_rig(rig: BenchRig, n_elements: int, f_hz: float, zeta: float, temperature_F: float,
+              constants: Callable[[float, float], tuple], start: tuple[float, float], what: str,
+              guess: np.ndarray | None) -> tuple[float, float, int, list, np.ndarray]:
+    """The (k, c) pair that `constants(k, c)` places in the rig's (k_a, c_a,
+    k_b, c_b), tuned so the rig's first mode has the measured frequency and
+    damping ratio; each equilibrium starts from the last. Returns k, c, the
+    iterations, the residual history and the final equilibrium."""
+    state = {"pos": guess}
+
+    def evaluate(k, c):
+        f, z, st, _ = rig_mode(rig, n_elements, constants(k, c), temperature_F, state["pos"])
+        state["pos"] = st.pos
+        return f, z
+
+    k, c, iters, hist = _tune(evaluate, start[0], start[1], f_hz, zeta,
+                              f"{rig.hose} {what}, {n_elements} elements, {temperature_F:.1f} F")
+    return k, c, iters, hist, state["pos"]
+
+
 def tune_bending(rig: BenchRig, n_elements: int, f_hz: float, zeta: float, temperature_F: float,
                  axial: tuple[float, float], start: tuple[float, float] | None = None,
                  guess: np.ndarray | None = None) -> dict:
@@ -92,19 +111,11 @@ def tune_bending(rig: BenchRig, n_elements: int, f_hz: float, zeta: float, tempe
     measured damped frequency and damping ratio (k_a, c_a given). `start`:
     first (k_b, c_b), default the Euler-Bernoulli beam's; `guess`: node
     positions to start the equilibrium from."""
-    state = {"pos": guess}
-
-    def evaluate(kb, cb):
-        f, z, st, _ = rig_mode(rig, n_elements, (axial[0], axial[1], kb, cb), temperature_F, state["pos"])
-        state["pos"] = st.pos
-        state["sag"] = float(st.pos[-1, 2])
-        return f, z
-
-    k0, c0 = start if start is not None else euler_bernoulli_guess(rig, n_elements, f_hz, zeta)
-    kb, cb, iters, hist = _tune(evaluate, k0, c0, f_hz, zeta,
-                                f"{rig.hose} bending, {n_elements} elements, {temperature_F:.1f} F")
+    start = start if start is not None else euler_bernoulli_guess(rig, n_elements, f_hz, zeta)
+    kb, cb, iters, hist, pos = _tune_rig(rig, n_elements, f_hz, zeta, temperature_F,
+                                         lambda k, c: (axial[0], axial[1], k, c), start, "bending", guess)
     return {"k_b": kb, "c_b": cb, "iterations": iters, "residual": hist[-1],
-            "tip_sag_m": state["sag"], "equilibrium": state["pos"]}
+            "tip_sag_m": float(pos[-1, 2]), "equilibrium": pos}
 
 
 def tune_axial(rig: BenchRig, n_elements: int, f_hz: float, zeta: float, temperature_F: float,
@@ -112,20 +123,11 @@ def tune_axial(rig: BenchRig, n_elements: int, f_hz: float, zeta: float, tempera
                guess: np.ndarray | None = None) -> dict:
     """k_a, c_a for which the N-element hanging section with its end weight has the
     measured axial frequency and damping ratio (k_b, c_b given)."""
-    state = {"pos": guess}
-
-    def evaluate(ka, ca):
-        f, z, st, _ = rig_mode(rig, n_elements, (ka, ca, bending[0], bending[1]), temperature_F,
-                               state["pos"])
-        state["pos"] = st.pos
-        state["stretch"] = float(-st.pos[-1, 2] - rig.length)
-        return f, z
-
-    k0, c0 = start if start is not None else axial_spring_guess(rig, n_elements, f_hz, zeta)
-    ka, ca, iters, hist = _tune(evaluate, k0, c0, f_hz, zeta,
-                                f"{rig.hose} axial, {n_elements} elements, {temperature_F:.1f} F")
+    start = start if start is not None else axial_spring_guess(rig, n_elements, f_hz, zeta)
+    ka, ca, iters, hist, pos = _tune_rig(rig, n_elements, f_hz, zeta, temperature_F,
+                                         lambda k, c: (k, c, bending[0], bending[1]), start, "axial", guess)
     return {"k_a": ka, "c_a": ca, "iterations": iters, "residual": hist[-1],
-            "static_stretch_m": state["stretch"], "equilibrium": state["pos"]}
+            "static_stretch_m": float(-pos[-1, 2] - rig.length), "equilibrium": pos}
 
 
 def resample_chain(pos: np.ndarray, n_elements: int) -> np.ndarray:
