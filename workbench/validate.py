@@ -221,11 +221,6 @@ def gci(fine: float, coarse: float, ratio: float, order: float = GCI_ORDER, safe
     return safety * abs(fine - coarse) / (ratio ** order - 1.0)
 
 
-def rss(*us: float | None) -> float:
-    """The root sum of squares of the uncertainties given (None: not measured, left out)."""
-    return math.sqrt(sum(u * u for u in us if u is not None))
-
-
 def _scalars(metrics: dict) -> dict:
     return {k: float(v) for k, v in metrics.items()
             if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)}
@@ -282,7 +277,8 @@ def _input_uncertainty(case: Case, rec: FlightRecord, over: dict, effects) -> di
     u = {}
     for axis, key in enumerate(STEADY_KEYS):
         # the error S - D moves with S
-        u[f"{key}_sim"] = u[key.removesuffix("_m") + "_error_m"] = rss(*(e[axis] for e in effect.values()))
+        u_key = math.hypot(*(e[axis] for e in effect.values()))
+        u[f"{key}_sim"] = u[key.removesuffix("_m") + "_error_m"] = u_key
     return {"input_sigma": sigma, "input_sigma_source": {k: INPUT_SIGMA[k][2] for k in sigma},
             "input_effect_m": effect, "u_input": u, "u_input_unmeasured": U_INPUT_UNMEASURED}
 
