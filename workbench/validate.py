@@ -8,7 +8,10 @@ Variants that tune a parameter (the drogue lift) are tuned first, on the
 logs they name, and gated on the others. Variants that `calibrate` effects
 (what `workbench diagnose` found) have their parameters fitted by the
 diagnosis's own least squares on the `calibrate_on` logs, with the case's
-model, and are gated on the logs they were not fitted to.
+model, and are gated on the logs they were not fitted to. Each flight run has
+an uncertainty study (`run_uncertainty`, a job of its own after the runs): the
+run at half the elements for u_num, the static solve under each test-card
+input's 1-sigma for u_input; it is reported (ASME V&V 20), never gated.
 """
 from __future__ import annotations
 
