@@ -8,10 +8,15 @@ Variants that tune a parameter (the drogue lift) are tuned first, on the
 logs they name, and gated on the others. Variants that `calibrate` effects
 (what `workbench diagnose` found) have their parameters fitted by the
 diagnosis's own least squares on the `calibrate_on` logs, with the case's
-model, and are gated on the logs they were not fitted to.
+model, and are gated on the logs they were not fitted to. Each flight run has
+an uncertainty study (`run_uncertainty`, a job of its own after the runs): the
+run at half the elements for u_num, the static solve under each test-card
+input's 1-sigma for u_input; it is reported (ASME V&V 20), never gated.
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -49,6 +54,7 @@ class Run:
     wall_s: float
     model_options: dict
     held_out: bool = True
+    uncertainty: dict | None = None   # `run_uncertainty`'s answer (ASME V&V 20 u_num, u_input)
 
 
 @dataclass
@@ -160,24 +166,125 @@ def _one_ringdown(args) -> Run:
                {"n_elements": row["n_elements"], "structure": "property table"})
 
 
-def _one_run(args) -> Run:
+def _one_run(args) -> Run | dict:
     if len(args) == 3:
         return _one_ringdown(args)
+    if len(args) == 5:
+        return run_uncertainty(*args[:4])
     case, variant, log_path, tuned = args
     rec = read_record(log_path)
     t0 = time.perf_counter()
     # a calibrated variant carries its fitted effects over the case's own
     sim = simulate_case(case, rec, variant=_overrides(variant, tuned), effects=variant.get("effects"))
     wall = time.perf_counter() - t0
+    held_out = rec.info.test_id not in training_logs(variant)
+    return Run(case.id, variant["id"], rec.info.test_id, str(log_path), _run_metrics(sim, rec), sim.result, wall,
+               sim.options.to_dict(), held_out)
+
+
+def _run_metrics(sim, rec: FlightRecord) -> dict:
     case, res = sim.case, sim.result
-    sim_rec = result_to_record(res, rec, note=f"case {case.id}, variant {variant['id']}")
+    sim_rec = result_to_record(res, rec, note=f"case {case.id}")
     # comparison-only effects (the tracker's delay) act on the log as compared, not on the physics
     metrics = compare(apply_comparison_effects(rec, case["effects"]), sim_rec).metrics
     if case.kind == "engagement":
         metrics.update(_whip_metrics(res, rec))
-    held_out = rec.info.test_id not in training_logs(variant)
-    return Run(case.id, variant["id"], rec.info.test_id, str(log_path), metrics, res, wall, sim.options.to_dict(),
-               held_out)
+    return metrics
+
+
+# --- the validation uncertainty of a run (ASME V&V 20-2009) -----------------
+# u_num: Roache's grid-convergence index from two element counts, the case's n
+# and n/2. Two grids give no observed order, so the solver's verified one is
+# used: second order in the element length (tests/solver/test_structure.py,
+# the cantilever's frequency error 4.9, 1.3, 0.28, 0.10 % at 4..32 elements;
+# tests/solver/test_effects.py, an error ratio > 3 from 40 to 80 elements).
+GCI_SAFETY = 3.0      # Roache's factor of safety for a two-grid study (no observed order)
+GCI_ORDER = 2.0
+GCI_COVERAGE = 2.0    # the GCI read as a ~95 % expanded uncertainty: u_num = GCI / 2
+
+# u_input: the test card's measured inputs, each moved by its 1-sigma one at a
+# time through the static solve. flighttest/logs/SCHEMA.md states no
+# accuracies; these are a typical flight-test installation's.
+INPUT_SIGMA = {
+    "calibrated_airspeed_mps": (1.0 * 0.514444, 0.0,
+                                "calibrated airspeed ±1 kt (a calibrated flight-test pitot-static air-data "
+                                "system)"),
+    "altitude_m": (25 * 0.3048, 0.0, "pressure altitude ±25 ft (the same air-data system)"),
+    "oat_K": (1.0, 0.0, "outside air temperature ±1 °C (a total-temperature probe)"),
+    "tanker_gross_weight_kg": (0.0, 0.01, "tanker gross weight ±1 % (fuel totaliser and weight and balance)"),
+}
+STEADY_KEYS = ("drogue_steady_x_m", "drogue_steady_y_m", "drogue_steady_z_m")
+U_INPUT_UNMEASURED = ("frequency, damping, response and shape errors, wave speed and reel delay: a propagation "
+                      "needs a full run per input; only the steady positions are propagated (static solves)")
+
+
+def gci(fine: float, coarse: float, ratio: float, order: float = GCI_ORDER, safety: float = GCI_SAFETY) -> float:
+    """Roache's grid-convergence index of the fine solution: Fs |S_fine - S_coarse| / (r^p - 1),
+    r the ratio of the element lengths (coarse over fine)."""
+    return safety * abs(fine - coarse) / (ratio ** order - 1.0)
+
+
+def _scalars(metrics: dict) -> dict:
+    return {k: float(v) for k, v in metrics.items()
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)}
+
+
+def run_uncertainty(case: Case, variant: dict, log_path, tuned: dict) -> dict:
+    """The uncertainty study of one (variant, log) run: the same run at half
+    the elements through `simulate_case` ("coarse_metrics"; `attach_u_num`
+    turns them into the GCI of each metric), and the steady drogue position's
+    static solve with each test-card input moved by its 1-sigma (`INPUT_SIGMA`).
+    A coarse run that fails leaves u_num unmeasured ("error") rather than
+    failing the case's gates."""
+    rec = read_record(log_path)
+    over, effects = _overrides(variant, tuned), variant.get("effects")
+    n = int(case["model"]["n_elements"])
+    n_c = max(2, n // 2)
+    out: dict[str, Any] = {"n_elements": n, "n_elements_coarse": n_c, "refinement_ratio": n / n_c,
+                           "gci_safety": GCI_SAFETY, "gci_order": GCI_ORDER, "gci_coverage": GCI_COVERAGE}
+    t0 = time.perf_counter()
+    try:
+        coarse = simulate_case(case, rec, variant={**over, "n_elements": n_c}, effects=effects)
+        out["coarse_metrics"] = _scalars(_run_metrics(coarse, rec))
+    except (StaticSolveError, DivergenceError) as exc:
+        out["error"] = f"the half-element run: {exc}"
+    out["coarse_wall_s"] = time.perf_counter() - t0
+    out.update(_input_uncertainty(case, rec, over, effects))
+    out["wall_s"] = time.perf_counter() - t0      # the study's whole cost, beside the run's own wall_s
+    return out
+
+
+def attach_u_num(run: Run, study: dict) -> None:
+    """`study` (`run_uncertainty`'s) on `run`, with u_num per metric: GCI / GCI_COVERAGE
+    of the run's metric against the coarse run's."""
+    fine, coarse = _scalars(run.metrics), study.get("coarse_metrics", {})
+    run.uncertainty = dict(study, u_num={k: gci(fine[k], coarse[k], study["refinement_ratio"]) / GCI_COVERAGE
+                                         for k in fine if k in coarse})
+
+
+def _input_uncertainty(case: Case, rec: FlightRecord, over: dict, effects) -> dict:
+    if not case["condition"]["from_log"]:
+        return {"u_input_unmeasured": "the case's condition is not the log's test card: not propagated"}
+    static = lambda r: simulate_case(case, r, variant=over, effects=effects, duration=0.0).static.pos[-1]
+    try:
+        p0 = static(rec)
+        effect, sigma = {}, {}
+        for key, (absolute, relative, _) in INPUT_SIGMA.items():
+            value = getattr(rec.info, key, None)
+            if value is None:
+                continue
+            sigma[key] = absolute + relative * abs(value)
+            moved = dataclasses.replace(rec, info=dataclasses.replace(rec.info, **{key: value + sigma[key]}))
+            effect[key] = (static(moved) - p0).tolist()
+    except (StaticSolveError, DivergenceError) as exc:
+        return {"u_input_unmeasured": f"static solve failed: {exc}"}
+    u = {}
+    for axis, key in enumerate(STEADY_KEYS):
+        # the error S - D moves with S
+        u_key = math.hypot(*(e[axis] for e in effect.values()))
+        u[f"{key}_sim"] = u[key.removesuffix("_m") + "_error_m"] = u_key
+    return {"input_sigma": sigma, "input_sigma_source": {k: INPUT_SIGMA[k][2] for k in sigma},
+            "input_effect_m": effect, "u_input": u, "u_input_unmeasured": U_INPUT_UNMEASURED}
 
 
 def steady_drogue_z(rec: FlightRecord) -> float:
@@ -271,6 +378,9 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
         for v in variants:
             for p in paths:
                 jobs.append((case, v, p, tuned))
+    # each run's uncertainty study (`run_uncertainty`) after all runs, so that
+    # the gated runs come first
+    jobs += [(*job, "uncertainty") for job in jobs if len(job) == 4]
     bar.add(len(jobs), f"{len(jobs)} runs")
     with Mapper(workers, scheduler) as mapper:
         done = mapper(_guarded_run, jobs, progress=lambda _: bar.done())
@@ -309,6 +419,12 @@ def _guarded_run(job) -> tuple[Run | None, tuple[str, int] | None]:
 def _collect(outcomes, job, run: Run | None, error: tuple[str, int] | None):
     case, v, p = job[:3]
     oc = outcomes[case.id]
+    if len(job) == 5:
+        # an uncertainty study: its run's, never a failure of the case
+        fine = [r for r in oc.runs if r.variant == v["id"] and r.log_path == str(p)]
+        if fine:
+            attach_u_num(fine[0], run if run is not None else {"error": error[0]})
+        return
     if run is not None:
         oc.runs.append(run)
     elif oc.error is None:
@@ -328,7 +444,8 @@ def results_dict(outcomes: list[CaseOutcome]) -> dict:
             "metrics": {f"{r.variant}/{r.log_id}/{k}": v for r in oc.runs for k, v in r.metrics.items()
                         if not isinstance(v, (list, dict))},
             "runs": [{"variant": r.variant, "log": r.log_id, "log_file": project_path(r.log_path), "held_out": r.held_out,
-                      "wall_s": r.wall_s, "model_options": r.model_options, "metrics": r.metrics}
+                      "wall_s": r.wall_s, "model_options": r.model_options, "metrics": r.metrics,
+                      "uncertainty": r.uncertainty}
                      for r in oc.runs],
             "gates": [{"metric": g.metric, "variant": g.variant, "value": g.value, "threshold": g.threshold,
                        "kind": g.kind, "passed": g.passed, "margin": g.margin, "source": g.source,

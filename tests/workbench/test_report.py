@@ -16,6 +16,7 @@ from numpy.testing import assert_allclose
 from workbench.cli import cli
 from workbench.progress import Progress
 from workbench.provenance import ROOT
+from workbench.report.document import fmt
 from workbench.report.objective import objective_tables
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -154,11 +155,13 @@ def test_objective_table_gives_e_and_its_validation_uncertainty():
     assert [t.title for t in tables] == ["Objective tests: L1", "Objective tests: L2", "Objective tests: L3"]
     rows = {r[1]: r for r in tables[0].rows}
     # period: D = 1/0.40 s, S = 1/0.44 s; u_D the spread of the three logs' periods
-    _, _, d, s, e, u_d, u_num, u_val, gate, p60 = rows["period (s)"]
+    _, _, d, s, e, u_d, u_num, u_input, u_val, e_pm, within, gate, p60 = rows["period (s)"]
     periods = [1 / f for f, _ in logs.values()]
     sd = math.sqrt(sum((p - sum(periods) / 3) ** 2 for p in periods) / 2)
     assert_allclose([d, s, e, u_d, u_num], [2.5, 1 / 0.44, 1 / 0.44 - 2.5, sd, 0.005 / 0.44], rtol=1e-12)
     assert_allclose(u_val, math.hypot(sd, 0.005 / 0.44), rtol=1e-12)
+    # no study stored with these runs: u_input not measured, left out of u_val; |E| 0.227 s > u_val
+    assert u_input is None and within.text == "no" and e_pm.text == f"{fmt(e)} ± {fmt(u_val)}"
     # Part 60: period within 10 % (0.25 s); E = -0.227 s is within
     assert p60.style == "pass" and "within" in p60.text
     # damping: E = 0.03 is outside Part 60's 0.02
@@ -168,7 +171,7 @@ def test_objective_table_gives_e_and_its_validation_uncertainty():
     assert_allclose(u_d, 0.0, atol=1e-15)
     assert p60.style == "fail"
     # the steady height carries the case's gate on this log
-    assert "pass" in rows["steady drogue z (m)"][8].text
+    assert "pass" in rows["steady drogue z (m)"][11].text
     # a time-history error is E itself, with the spread of that error over the logs (all 0.05: 0)
     _, _, d, s, e, u_d, *_ = rows["z response RMS error (m)"]
     assert d is None and s is None and e == 0.05

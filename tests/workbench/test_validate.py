@@ -2,7 +2,9 @@
 import json
 from pathlib import Path
 
+import numpy as np
 from click.testing import CliRunner
+from numpy.testing import assert_allclose
 
 from workbench.cli import cli
 from workbench.report import fmt
@@ -89,6 +91,18 @@ def test_validate_writes_results_and_passes(tmp_path):
     assert f["status"] == "as expected" and f["passed"] and f["logs"] == ["TR-KDC10-E7"]
     assert f["value"] == m["baseline/TR-KDC10-E7/drogue_steady_z_error_m"]
     assert abs(f["value"] - Z_EXPECTED) <= f["band"]
+    # the run's V&V 20 uncertainty study: the half-element run and the inputs' static solves
+    (run,) = case["runs"]
+    u = run["uncertainty"]
+    assert (u["n_elements"], u["n_elements_coarse"], u["refinement_ratio"]) == (12, 6, 2.0)
+    key = "drogue_steady_z_m_sim"
+    # u_num = GCI / 2 = 3 |S - S_coarse| / (2^2 - 1) / 2, to rounding
+    assert_allclose(u["u_num"][key], abs(run["metrics"][key] - u["coarse_metrics"][key]) / 2, rtol=1e-12)
+    assert set(u["input_sigma"]) >= {"calibrated_airspeed_mps", "altitude_m", "oat_K"}
+    # u_input: the root sum of squares of each input's effect on the static drogue height
+    assert_allclose(u["u_input"][key], np.linalg.norm([e[2] for e in u["input_effect_m"].values()]), rtol=1e-12)
+    assert u["u_input"]["drogue_steady_z_error_m"] == u["u_input"][key] > 0
+    assert "frequency" in u["u_input_unmeasured"]
     # the report: a gate row and a finding row each, with their values
     html = (out / "report.html").read_text()
     gate_rows = html.split('<tr class="gate-row">')[1:]

@@ -70,16 +70,24 @@ GLOSSARY_TERMS = [
     ("wave speed", "Speed of the transverse wave down the hose after contact (m/s), from the timing of the "
                    "hose points' departure along the hose."),
     ("E, u_val", "ASME V&V 20: comparison error E = S − D (model minus data) and validation uncertainty "
-                 "u_val = √(u_D² + u_num² + u_input²)."),
+                 "u_val = √(u_D² + u_num² + u_input²), a '–' left out. |E| ≤ u_val: the model is validated to the "
+                 "level of u_val (its error cannot be told from the validation's uncertainty); |E| well above "
+                 "u_val: E measures the model's error."),
     ("u_D", "The data's uncertainty: the sample standard deviation of D over repetitions (a bench setpoint's "
             "repeated ring-downs; the case's logs of the same test: three doublets, four trails, two "
             "engagements); for an RMS error, that error's spread over the case's logs. '–' with one repetition."),
-    ("u_num", "The numerical error: for period and damping the property tables' bench verification bound "
+    ("u_num", "The numerical error. A flight run: validate runs it again at half the elements and takes Roache's "
+              "grid-convergence index GCI = Fs·|S − S_coarse| / (r^p − 1) with Fs = 3 (two grids), r = 2 and "
+              "p = 2 (the solver's second-order convergence in the element length, tests/solver), read as a "
+              "95 % bound: u_num = GCI / 2. A bench ring-down: the property tables' verification bound "
               "({frequency:g} % of the frequency, {damping:g} % of the damping; verification_tolerance_pct of "
-              "cases/properties/hose_properties.json); for positions and shapes no element-count or step study "
-              "is stored and 0 is used."),
-    ("u_input", "The input uncertainty: not propagated (0 used). The calibrated parameters' standard errors are "
-                "printed with each diagnosed variant."),
+              "cases/properties/hose_properties.json)."),
+    ("u_input", "The input uncertainty of the steady drogue position: the static solve repeated with each test-card "
+                "input moved by its 1-sigma (calibrated airspeed 1 kt and pressure altitude 25 ft of a "
+                "flight-test air-data system, OAT 1 °C, tanker gross weight 1 %; the log schema states no "
+                "accuracies), the changes root-sum-squared. Not measured ('–') for frequency, damping, response "
+                "and shape errors, wave speed and reel delay, which would need a full run per input. The "
+                "calibrated parameters' standard errors are printed with each diagnosed variant."),
 ]
 
 

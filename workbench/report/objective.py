@@ -9,18 +9,24 @@ comparison error E = S - D, and u_val = sqrt(u_D² + u_num² + u_input²):
   logs of the same test (the three doublets, the four trails, the two
   engagements). For a quantity that is itself an error (an RMS over a time
   history or a shape), the spread of that error over the case's logs.
-- u_num, the numerical error: the bench verification bound of the property
-  tables (`verification_tolerance_pct` of cases/properties/hose_properties.json:
-  frequency 0.5 %, damping 2 % of the value) for period and damping; for positions and
-  shapes no element-count or step study is stored, and 0 is used.
-- u_input: not propagated (0 used). The calibrated parameters' standard
-  errors, the one input uncertainty estimated, are printed with the case.
+- u_num, the numerical error: for a flight run, validate's discretisation
+  study (`workbench.validate.run_uncertainty`): the run again at half the
+  elements, Roache's GCI = 3 |S - S_coarse| / (2² - 1), u_num = GCI / 2. For
+  a bench ring-down, the property tables' verification bound
+  (`verification_tolerance_pct` of cases/properties/hose_properties.json:
+  frequency 0.5 %, damping 2 % of the value).
+- u_input: the steady drogue position moved by each test-card input's
+  1-sigma (airspeed, altitude, OAT, tanker weight) through the static solve,
+  root-sum-squared (`workbench.validate.INPUT_SIGMA`); not measured ('–') for
+  the other quantities.
 
-Where |E| is well above u_val, E measures the model's error; where it is
-within about 2 u_val the comparison cannot tell the model from the data.
-The 14 CFR Part 60 objective-test tolerances (flight simulator qualification:
-period within 10 %, damping ratio within 0.02, time histories within stated
-bands) are shown beside the paper's gates.
+A per-metric u of S carries to a quantity through the quantity's own
+accessor (first order: period = 1/f gives u_f / f²). Where |E| <= u_val the
+model is validated to the level of u_val (V&V 20 §1-5: the model error is then
+within the noise of the validation); where |E| is well above u_val, E
+measures the model's error. The 14 CFR Part 60 objective-test tolerances
+(flight simulator qualification: period within 10 %, damping ratio within
+0.02, time histories within stated bands) are shown beside the paper's gates.
 """
 from __future__ import annotations
 
@@ -47,7 +53,9 @@ class Quantity:
 
 
 def _m(key: str):
-    return lambda m: _num(m.get(key))
+    get = lambda m: _num(m.get(key))
+    get.key = key                 # the metric its uncertainties are stored under
+    return get
 
 
 def _num(v):
@@ -58,6 +66,7 @@ def _period(key: str):
     def get(m):
         f = _num(m.get(key))
         return 1.0 / f if f else None
+    get.key = key
     return get
 
 
@@ -126,6 +135,23 @@ def _u_data(q: Quantity, runs: list, run) -> float | None:
     return float(np.std(vals, ddof=1)) if len(vals) >= 2 else None
 
 
+def _u_of_s(q: Quantity, metrics: dict, per_metric: dict | None) -> float | None:
+    """A per-metric uncertainty of the run (u_num or u_input, by metric name)
+    carried to the quantity S through its accessor, first order."""
+    key = getattr(q.sim, "key", None)
+    u = _num((per_metric or {}).get(key))
+    s = q.sim(metrics)
+    if u is None or s is None:
+        return None
+    moved = q.sim({**metrics, key: metrics[key] + u})
+    return abs(moved - s) if moved is not None else None
+
+
+def rss(*us: float | None) -> float:
+    """The root sum of squares of the uncertainties given (None: not measured, left out)."""
+    return math.sqrt(sum(u * u for u in us if u is not None))
+
+
 def _gate_text(case: dict, q: Quantity, variant: str, log_id: str) -> Cell:
     gates = [g for g in case["gates"] if g["metric"] == q.gate_metric and g["variant"] == variant
              and log_id in g["logs"]]
@@ -158,9 +184,13 @@ def objective_tables(case: dict, bounds_pct: dict[str, float]) -> list[Table]:
                 if d is None or s is None:
                     continue
                 e = s - d
+                unc = r.get("uncertainty") or {}
                 u_d = _u_data(q, case["runs"], r)
-                u_n = bounds_pct[q.u_num] / 100.0 * abs(s) if q.u_num else 0.0
-                u_val = math.sqrt((u_d or 0.0) ** 2 + u_n ** 2)
+                u_n = _u_of_s(q, r["metrics"], unc.get("u_num"))
+                if u_n is None and q.u_num and not unc:    # a bench ring-down: no study, the bound
+                    u_n = bounds_pct[q.u_num] / 100.0 * abs(s)
+                u_i = _u_of_s(q, r["metrics"], unc.get("u_input"))
+                u_val = rss(u_d, u_n, u_i)
                 if q.part60 is None:
                     p60 = Cell(esc(q.part60_text), "small")
                 else:
@@ -168,14 +198,18 @@ def objective_tables(case: dict, bounds_pct: dict[str, float]) -> list[Table]:
                     ok = abs(e) <= tol
                     p60 = Cell(f"{esc(q.part60_text)} ({esc(fmt(tol))}): {'within' if ok else 'outside'}",
                                "pass" if ok else "fail")
+                within = Cell("yes", "pass") if abs(e) <= u_val else Cell("no")
                 rows.append([r["variant"] + ("" if r["held_out"] else " (training)"), q.label,
                              None if q.error_only else d, None if q.error_only else s, e,
-                             u_d, u_n, u_val, _gate_text(case, q, r["variant"], log_id), p60])
+                             u_d, u_n, u_i, u_val, Cell(f"{esc(fmt(e))} ± {esc(fmt(u_val))}"), within,
+                             _gate_text(case, q, r["variant"], log_id), p60])
         if rows:
             tables.append(Table(
-                ["variant", "quantity", "flight D", "model S", "E = S − D", "u_D", "u_num", "u_val",
-                 "paper gate", "14 CFR Part 60"], rows, [13, 17, 8, 8, 8, 7, 7, 7, 15, 15],
+                ["variant", "quantity", "flight D", "model S", "E = S − D", "u_D", "u_num", "u_input", "u_val",
+                 "E ± u_val", "|E| ≤ u_val", "paper gate", "14 CFR Part 60"], rows,
+                [12, 15, 7, 7, 7, 6, 6, 6, 6, 10, 6, 13, 13],
                 title=f"Objective tests: {esc(log_id)}", row_class="objective-row",
-                note="E ± u_val per ASME V&V 20; u_D, u_num and u_val as defined in the glossary. For an RMS "
-                     "error E is the error itself."))
+                note="E ± u_val per ASME V&V 20; u_D, u_num, u_input and u_val as defined in the glossary "
+                     "('–': not measured, left out of u_val). |E| ≤ u_val: the model is validated to the level "
+                     "of u_val. For an RMS error E is the error itself."))
     return tables
