@@ -8,27 +8,7 @@ The Python API (`workbench.api`), for notebooks and scripts:
     out.to_pandas(); out.plot()
     outcomes = workbench.validate(["cases/g3_pitch_doublets.toml"])
     diagnosis = workbench.diagnose(["flighttest/logs/flight/PD-G3-1.mcap", ...])
-
-`run` and `validate` share their names with the modules that implement them
-(`workbench.run`, `workbench.validate`), which tests and code address by
-dotted path; so that both work, those two modules are made callable here:
-`workbench.run(...)` calls `workbench.api.run(...)`.
 """
-import types
-
-from workbench import api
-from workbench import run, validate  # the modules, already imported by api
-from workbench.api import diagnose, load_case
+from workbench.api import diagnose, load_case, run, validate
 
 __all__ = ["load_case", "run", "validate", "diagnose"]
-
-
-class _VerbModule(types.ModuleType):
-    """A module that, called, runs the API function of its name (see above)."""
-
-    def __call__(self, *args, **kwargs):
-        return getattr(api, self.__name__.rpartition(".")[2])(*args, **kwargs)
-
-
-for _module in (run, validate):
-    _module.__class__ = _VerbModule

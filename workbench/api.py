@@ -10,9 +10,9 @@ from workbench.cases import Case, load_case
 from workbench.diagnosis import DEFAULT_ELEMENTS, Diagnosis
 from workbench.diagnosis import diagnose as _diagnose
 from workbench.effects_case import with_effects
-from workbench.run import RunOutcome, run_case
+from workbench.case_run import RunOutcome, run_case
 from workbench.progress import Progress
-from workbench.validate import CaseOutcome, validate_cases
+from workbench.validation import CaseOutcome, validate_cases
 
 __all__ = ["load_case", "run", "validate", "diagnose"]
 

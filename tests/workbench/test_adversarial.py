@@ -686,7 +686,7 @@ def test_diagnose_without_out_writes_a_new_folder_not_the_committed_one():
 def test_ctrl_c_exits_130_with_one_line(tmp_path, monkeypatch):
     def interrupt(*_a, **_k):
         raise KeyboardInterrupt
-    monkeypatch.setattr("workbench.run.run_case", interrupt)
+    monkeypatch.setattr("workbench.case_run.run_case", interrupt)
     case = tmp_path / "case.toml"
     case.write_text(dump(base()))
     refused(invoke("run", case, "--out", tmp_path / "o"), "interrupted", code=EXIT_INTERRUPTED)

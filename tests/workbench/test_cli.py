@@ -148,7 +148,7 @@ def test_validate_gate_failure_exits_one(tmp_path):
 def test_unexpected_exception_is_one_line_with_the_traceback_in_a_file(monkeypatch, tmp_path):
     def boom(*_a, **_k):
         raise KeyError("a defect\nover two lines")
-    monkeypatch.setattr("workbench.run.run_case", boom)
+    monkeypatch.setattr("workbench.case_run.run_case", boom)
     monkeypatch.setattr("tempfile.tempdir", str(tmp_path))
     res = invoke("run", DEMO)
     assert res.exit_code == EXIT_INTERNAL
@@ -222,7 +222,7 @@ def test_every_gate_and_finding_of_the_committed_cases_names_a_metric_of_its_kin
 
 def test_every_engagement_metric_with_the_hose_whip_is_produced_by_a_validate_run(tmp_path):
     # the committed engagement case, one log, 12 elements, no variants: its one run's metrics
-    from workbench.validate import validate_cases
+    from workbench.validation import validate_cases
     src = (ROOT / "cases" / "kdc10_engagement7.toml").read_text()
     src = src[:src.index("[[variants]]")].replace("n_elements = 40", "n_elements = 12")
     src = re.sub(r"(?m)^logs = .*$", 'logs = ["flight/EN-KDC10-E7.mcap"]', src)

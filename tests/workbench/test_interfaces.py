@@ -18,7 +18,7 @@ from flighttest import read_record
 from tests.workbench.test_cli import DEMO, LOGS, ROOT, TRAIL
 from workbench.cli import cli
 from workbench.errors import EXIT_BAD_INPUT, InputError
-from workbench.run import check_log_fits
+from workbench.case_run import check_log_fits
 
 matplotlib.use("Agg")
 
@@ -193,9 +193,6 @@ def test_python_api_run_to_pandas_and_plot():
     assert df.shape == (len(out.result.t), 16) and df.index.name == "t_s"
     assert len(out.result.t) >= 20                           # 0.2 s at the case's record_dt 0.01 s
     assert isinstance(out.plot(), Figure)
-    # the verb modules stay addressable by dotted path
-    from workbench.run import run_case
-    assert workbench.run.run_case is run_case
 
 
 def test_python_api_validate_gives_outcomes_with_frames_and_figures(tmp_path):

@@ -5,7 +5,7 @@ from numpy.testing import assert_allclose
 
 from workbench.report.document import Cell
 from workbench.report.objective import objective_tables, rss
-from workbench.validate import GCI_COVERAGE, gci
+from workbench.validation import GCI_COVERAGE, gci
 
 BOUNDS = {"frequency": 0.5, "damping": 2.0}
 

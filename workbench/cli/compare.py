@@ -28,7 +28,7 @@ def compare(log_file: Path, mcap_file: Path, case_file: str | None, duration: fl
     from flighttest import read_record
     from workbench.cases import load_case
     from workbench.cli.validate import case_paths
-    from workbench.run import case_for_log, run_case, write_comparison_mcap
+    from workbench.case_run import case_for_log, run_case, write_comparison_mcap
     record = read_record(log_file)
     case = load_case(case_paths((case_file,))[0]) if case_file else case_for_log(record)
     writable_file(mcap_file, "--mcap")      # before any computing

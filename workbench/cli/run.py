@@ -8,7 +8,7 @@ import click
 from workbench.budget import MAX_DURATION_S
 from workbench.cli.params import FiniteFloatRange
 from workbench.outputs import claim, safe_name, writable_file
-from workbench.run import DEFAULT_OUT
+from workbench.case_run import DEFAULT_OUT
 
 
 @click.command()
@@ -34,7 +34,7 @@ def run(case_file: Path, log_file: Path | None, out_dir: Path, duration: float |
     from flighttest import read_record
     from workbench.cases import load_case
     from workbench.effects_case import parse_effect_options, with_effects
-    from workbench.run import run_case, write_mcap, write_outputs
+    from workbench.case_run import run_case, write_mcap, write_outputs
     case = with_effects(load_case(case_file), parse_effect_options(effects))
     record = read_record(log_file) if log_file is not None else None
     # the folder checked, unclaimed by another run and locked before any computing

@@ -72,7 +72,7 @@ def validate(targets: tuple[str, ...], out_dir: Path, workers: int | None, sched
     progress.doing("loading the model code")
     try:
         from workbench.report import finding_message, gate_message, report_steps, write_report
-        from workbench.validate import results_dict, validate_cases
+        from workbench.validation import results_dict, validate_cases
         paths = case_paths(targets)
         # the folder checked, unclaimed by another run and locked before any computing
         click.get_current_context().with_resource(claim(out_dir, RESULTS, force))

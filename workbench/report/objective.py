@@ -10,14 +10,14 @@ comparison error E = S - D, and u_val = sqrt(u_D² + u_num² + u_input²):
   engagements). For a quantity that is itself an error (an RMS over a time
   history or a shape), the spread of that error over the case's logs.
 - u_num, the numerical error: for a flight run, validate's discretisation
-  study (`workbench.validate.run_uncertainty`): the run again at half the
+  study (`workbench.validation.run_uncertainty`): the run again at half the
   elements, Roache's GCI = 3 |S - S_coarse| / (2² - 1), u_num = GCI / 2. For
   a bench ring-down, the property tables' verification bound
   (`verification_tolerance_pct` of cases/properties/hose_properties.json:
   frequency 0.5 %, damping 2 % of the value).
 - u_input: the steady drogue position moved by each test-card input's
   1-sigma (airspeed, altitude, OAT, tanker weight) through the static solve,
-  root-sum-squared (`workbench.validate.INPUT_SIGMA`); not measured ('–') for
+  root-sum-squared (`workbench.validation.INPUT_SIGMA`); not measured ('–') for
   the other quantities.
 
 A per-metric u of S carries to a quantity through the quantity's own

@@ -143,7 +143,24 @@ def _whip_metrics(res: SimulationResult, rec: FlightRecord) -> dict:
 RINGDOWN_KINDS = ("ringdown_bending", "ringdown_axial")
 
 
-def _one_ringdown(args) -> Run:
+@dataclass
+class Job:
+    """One unit of a validation campaign, run in a mapper worker: a bench
+    group's verification ("ringdown", `group`), a variant on a log ("run",
+    `log_path`), or that run's uncertainty study ("uncertainty")."""
+    kind: str
+    case: Case
+    variant: dict
+    log_path: str | None = None
+    group: dict | None = None
+    tuned: dict = field(default_factory=dict)
+
+    @property
+    def where(self) -> str:
+        return Path(self.log_path).name if self.log_path else f"records {', '.join(self.group['records'])}"
+
+
+def _one_ringdown(job: Job) -> Run:
     """Paper Fig. 9 for one measured group (a setpoint's repetitions): the
     case's N-element bench rig with the property table at the group's mean
     temperature, simulated and measured like the bench records."""
@@ -151,7 +168,7 @@ def _one_ringdown(args) -> Run:
     from workbench.properties.rig import BenchRig
     from workbench.properties.store import load_library
     from workbench.properties.verify import verify_group
-    case, variant, group = args
+    case, variant, group = job.case, job.variant, job.group
     sheet = load_hardware().get("hose", group["hose"])
     hanging = group["test_kind"] == "ringdown_axial"
     rig = BenchRig.from_sheet(sheet, group["section_length_m"], hanging=hanging, tip_mass=group["tip_mass_kg"])
@@ -166,12 +183,12 @@ def _one_ringdown(args) -> Run:
                {"n_elements": row["n_elements"], "structure": "property table"})
 
 
-def _one_run(args) -> Run | dict:
-    if len(args) == 3:
-        return _one_ringdown(args)
-    if len(args) == 5:
-        return run_uncertainty(*args[:4])
-    case, variant, log_path, tuned = args
+def _one_run(job: Job) -> Run | dict:
+    if job.kind == "ringdown":
+        return _one_ringdown(job)
+    if job.kind == "uncertainty":
+        return run_uncertainty(job.case, job.variant, job.log_path, job.tuned)
+    case, variant, log_path, tuned = job.case, job.variant, job.log_path, job.tuned
     rec = read_record(log_path)
     t0 = time.perf_counter()
     # a calibrated variant carries its fitted effects over the case's own
@@ -347,7 +364,7 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
                 outcomes[case.id] = CaseOutcome(case, [], [], error=str(exc), error_code=EXIT_BAD_INPUT)
                 continue
             outcomes[case.id] = CaseOutcome(case, [], [])
-            jobs += [(case, variants_of(case)[0], g) for g in groups]
+            jobs += [Job("ringdown", case, variants_of(case)[0], group=g) for g in groups]
             continue
         try:
             records = {p: read_record(p) for p in paths}
@@ -377,10 +394,10 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
         outcomes[case.id] = CaseOutcome(case, [], [], tuned=tuned, calibrated=calibrated)
         for v in variants:
             for p in paths:
-                jobs.append((case, v, p, tuned))
+                jobs.append(Job("run", case, v, log_path=str(p), tuned=tuned))
     # each run's uncertainty study (`run_uncertainty`) after all runs, so that
     # the gated runs come first
-    jobs += [(*job, "uncertainty") for job in jobs if len(job) == 4]
+    jobs += [dataclasses.replace(job, kind="uncertainty") for job in jobs if job.kind == "run"]
     bar.add(len(jobs), f"{len(jobs)} runs")
     with Mapper(workers, scheduler) as mapper:
         done = mapper(_guarded_run, jobs, progress=lambda _: bar.done())
@@ -416,20 +433,18 @@ def _guarded_run(job) -> tuple[Run | None, tuple[str, int] | None]:
         return None, (str(exc), EXIT_BAD_INPUT if isinstance(exc, ValueError) else exit_code_for(exc))
 
 
-def _collect(outcomes, job, run: Run | None, error: tuple[str, int] | None):
-    case, v, p = job[:3]
-    oc = outcomes[case.id]
-    if len(job) == 5:
+def _collect(outcomes, job: Job, run: Run | None, error: tuple[str, int] | None):
+    oc = outcomes[job.case.id]
+    if job.kind == "uncertainty":
         # an uncertainty study: its run's, never a failure of the case
-        fine = [r for r in oc.runs if r.variant == v["id"] and r.log_path == str(p)]
+        fine = [r for r in oc.runs if r.variant == job.variant["id"] and r.log_path == job.log_path]
         if fine:
             attach_u_num(fine[0], run if run is not None else {"error": error[0]})
         return
     if run is not None:
         oc.runs.append(run)
     elif oc.error is None:
-        where = Path(p).name if isinstance(p, (str, Path)) else f"records {', '.join(p['records'])}"
-        oc.error = f"variant {v['id']}, {where}: {error[0]}"
+        oc.error = f"variant {job.variant['id']}, {job.where}: {error[0]}"
         oc.error_code = error[1]
 
 
