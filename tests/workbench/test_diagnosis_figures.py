@@ -72,7 +72,7 @@ def test_channel_x_phase_puts_a_known_offset_in_its_one_cell():
 def test_station_x_band_of_the_hose_groups_stations_by_three_metres():
     ob, R = _doublet()
     sb = where_map(ob, R)["station_band"]
-    assert sb["rows"] == ["0-3 m", "3-6 m", "6-9 m"] and sb["cols"] == ["below 0.5 Hz"]
+    assert sb["rows"] == ["0 to 3 m", "3 to 6 m", "6 to 9 m"] and sb["cols"] == ["below 0.5 Hz"]
     # one of the four windows at 3-6 m is 1 m off: RMS 1/2 m
     assert_allclose(np.array(sb["gap_m"], float).ravel(), [0.0, 0.5, 0.0], atol=1e-12)
     assert sb["n"] == [[4], [4], [4]]

@@ -160,8 +160,9 @@ def _cross_figure(name: str, log: str, before: dict, after: dict | None, effect:
     ratios = [np.array([[np.nan if g is None or not f else g / f for g, f in zip(gr, fr)]
                         for gr, fr in zip(p["gap_m"], p["floor_m"])], float) for _, p, _ in panels]
     vmax = max(2.0, max(np.nanmax(r) for r in ratios))
-    fig = MplFigure(figsize=(11, 3.2 * len(tables)))
-    axes = fig.subplots(len(tables), len(states), squeeze=False).ravel()
+    fig = MplFigure(figsize=(11, 3.4 * len(tables)))
+    # room between the rows for the upper maps' column labels
+    axes = fig.subplots(len(tables), len(states), squeeze=False, gridspec_kw={"hspace": 0.7}).ravel()
     im = None
     for ax, (title, p, flip), r in zip(axes, panels, ratios):
         gaps = np.array([[np.nan if g is None else g for g in row] for row in p["gap_m"]], float)

@@ -92,8 +92,8 @@ def where_map(ob: Observation, R: Residual) -> dict:
     hose = R.channel == "hose"
     if hose.any():
         lo = np.floor(R.station[hose] / STATION_M) * STATION_M
-        rows = np.array([f"{a:g}-{a + STATION_M:g} m" for a in lo], dtype=object)
-        order = [f"{a:g}-{a + STATION_M:g} m" for a in np.unique(lo)]
+        rows = np.array([f"{a:g} to {a + STATION_M:g} m" for a in lo], dtype=object)
+        order = [f"{a:g} to {a + STATION_M:g} m" for a in np.unique(lo)]
         out["station_band"] = cross_table(R, rows, R.band[hose], order=order, keep=hose)
     out["series"] = overlay_series(ob, R)
     return out
