@@ -173,7 +173,9 @@ def _cross_figure(name: str, log: str, before: dict, after: dict | None, effect:
         im = _heat(ax, r, rows, cols, title, text, vmax)
         if flip:
             ax.set_xlabel("station along the hose (m)", fontsize=8)
-    cb = fig.colorbar(im, ax=list(axes), orientation="horizontal", fraction=0.05, pad=0.25, aspect=60)
+    # the pad is a share of one row's height: under the lowest row's tick labels
+    cb = fig.colorbar(im, ax=list(axes), orientation="horizontal", fraction=0.05, pad=0.25 / len(tables) + 0.03,
+                      aspect=60)
     cb.set_label("gap / noise floor (-); cells: gap (m) over gap / floor", fontsize=8)
     return Figure(figure_png(fig), f"{esc(name)}, {esc(log)}: the gap by channel and test phase"
                   + (" and along the hose by band" if len(tables) > 1 else "")
@@ -228,7 +230,7 @@ def _per_log_figures(name: str, d: dict) -> list:
         if "channel_phase" not in before or "series" not in before:
             return [Para("This diagnosis.json predates the channel x phase and station x band tables and the "
                          "overlay series of the where-map, so those figures are left out; run "
-                         "<code>workbench diagnose</code> again to draw them.", "note")]
+                         "workbench diagnose again to draw them.", "note")]
         out += [_cross_figure(name, log, before, after, effect), _overlay_figure(name, log, before, after, effect)]
     return out
 
