@@ -94,20 +94,20 @@ def where_map(ob: Observation, R: Residual) -> dict:
         lo = np.floor(R.station[hose] / STATION_M) * STATION_M
         rows = np.array([f"{a:g} to {a + STATION_M:g} m" for a in lo], dtype=object)
         order = [f"{a:g} to {a + STATION_M:g} m" for a in np.unique(lo)]
-        out["station_band"] = cross_table(R, rows, R.band[hose], order=order, keep=hose)
+        out["station_band"] = cross_table(R, rows, R.band[hose], row_order=order, keep=hose)
     out["series"] = overlay_series(ob, R)
     return out
 
 
-def cross_table(R: Residual, rows, cols, col_order=None, order=None, keep=None) -> dict:
+def cross_table(R: Residual, rows, cols, col_order=None, row_order=None, keep=None) -> dict:
     """RMS residual and RMS noise floor (m) of the components of `R` (those
     where `keep`, default all) by row tag x column tag (one tag per kept
-    component each): rows in `order` (default first seen), columns in
+    component each): rows in `row_order` (default first seen), columns in
     `col_order` then any other seen; an empty cell is None."""
     keep = np.ones(len(R.r), bool) if keep is None else np.asarray(keep, bool)
     r, fl = R.r[keep], R.floor[keep]
     rows, cols = np.asarray(rows, dtype=object), np.asarray(cols, dtype=object)
-    row_names = list(order) if order is not None else list(dict.fromkeys(rows))
+    row_names = list(row_order) if row_order is not None else list(dict.fromkeys(rows))
     seen = list(dict.fromkeys(cols))
     col_names = [c for c in (col_order or []) if c in seen] + [c for c in seen if c not in (col_order or [])]
     g = [[None] * len(col_names) for _ in row_names]
@@ -138,7 +138,7 @@ def _thin(t, y):
 
 
 def _round(a) -> list:
-    # 0.1 mm and 1 ms: far below the noise floors the figures compare with
+    # 0.1 mm and 0.1 ms: far below the noise floors the figures compare with
     return [None if not math.isfinite(v) else round(float(v), 4) for v in np.asarray(a, float)]
 
 
