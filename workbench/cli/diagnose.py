@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from pathlib import Path
 
 import click
 
 from workbench.cli.params import WORKERS
-from workbench.errors import InputError
+from workbench.errors import InputError, SimulationFailed
 from workbench.outputs import claim, timestamped
 from workbench.provenance import ROOT
 
@@ -38,12 +37,18 @@ COMMITTED = ROOT / "reports" / "diagnose"
 @click.option("--workers", type=WORKERS, default=None, help="Local worker processes (default: all cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the candidate fits on a Dask distributed cluster (e.g. tcp://host:8786).")
+@click.option("--no-progress", is_flag=True, help="No progress display (CI); the summary lines stay.")
+@click.option("--quiet", is_flag=True, help="Only the final line and errors.")
 def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_elements, workers,
-             scheduler) -> None:
+             scheduler, no_progress, quiet) -> None:
     """Where the simulation departs from LOGS, which unmodelled effect explains it, how far the gap shrinks."""
-    from workbench import diagnosis as D
-    t0 = time.perf_counter()
+    from workbench.progress import Progress
+    # the display comes up first: the imports below take seconds
+    progress = Progress("diagnose", enabled=not (no_progress or quiet))
+    progress.doing("loading the model code")
+    say = click.echo if not quiet else (lambda line: None)
     try:
+        from workbench import diagnosis as D
         if not (logs or selftest):
             raise InputError("give one or more LOG.mcap files, or --selftest")
         out_dir = _out_folder(out_dir, update_committed)
@@ -52,32 +57,41 @@ def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_e
             claim(out_dir, ["diagnosis.json", "selftest.json"], force or update_committed))
         if selftest:
             from workbench.diagnosis.selftest import run_selftest
+            progress.add(n_logs, "generating and diagnosing the logs")
             r = run_selftest(n=n_logs, seed=seed, n_elements=n_elements, workers=workers, scheduler=scheduler,
-                             out_dir=out_dir, progress=click.echo)
+                             out_dir=out_dir, progress=progress.done)
             path = D.write_selftest(r, out_dir)
-            click.echo(f"selftest: {r['n']} logs, top-1 {100 * r['top1']:.0f} %, held-out shrink median "
-                       f"{100 * r['median_shrink']:.0f} % (>= 70 % in {100 * r['share_shrink_ge_70pct']:.0f} % of "
-                       f"logs), {r['wall_s']:.0f} s; {path}")
-            for k, v in r["by_kind"].items():
-                click.echo(f"  {k}: n {v['n']}, top-1 {100 * v['top1']:.0f} %, median shrink "
-                           f"{100 * v['median_shrink']:.0f} %")
-            return
-        out = D.diagnose([str(p) for p in logs], n_elements or D.DEFAULT_ELEMENTS, workers, scheduler,
-                         progress=click.echo)
-    except InputError as exc:
-        click.echo(f"error: {exc}", err=True)
-        sys.exit(2)
-    except D.SimulationFailed as exc:
-        # the baseline itself does not simulate: nothing to diagnose against
-        click.echo(f"error: baseline simulation failed: {exc}", err=True)
-        sys.exit(3)
-    files = D.write_diagnosis(out, out_dir)
+        else:
+            # the diagnosis reports its stages as they end (baseline, screen,
+            # fits): each is a step of the display, its total growing with them
+            out = D.diagnose([str(p) for p in logs], n_elements or D.DEFAULT_ELEMENTS, workers, scheduler,
+                             progress=lambda what: (progress.add(1), progress.done(what)))
+            progress.add(1, "writing diagnosis.json and diagnosis.html")
+            files = D.write_diagnosis(out, out_dir)
+            progress.done()
+    except BaseException as exc:
+        progress.close(keep=False)   # the error's one line stands alone
+        if isinstance(exc, InputError):
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
+        if isinstance(exc, SimulationFailed):
+            # the baseline itself does not simulate: nothing to diagnose against
+            click.echo(f"error: baseline simulation failed: {exc}", err=True)
+            sys.exit(3)
+        raise
+    progress.close()
+    if selftest:
+        for k, v in r["by_kind"].items():
+            say(f"  {k}: n {v['n']}, top-1 {100 * v['top1']:.0f} %, median shrink {100 * v['median_shrink']:.0f} %")
+        click.echo(f"selftest: {r['n']} logs, top-1 {100 * r['top1']:.0f} %, held-out shrink median "
+                   f"{100 * r['median_shrink']:.0f} % (>= 70 % in {100 * r['share_shrink_ge_70pct']:.0f} % of "
+                   f"logs); {path}; total {progress.elapsed_s:.1f} s")
+        return
     for name, d in out.families.items():
         top = d.ranking[0]
-        click.echo(f"{name}: gap {d.gap_before:.3f} m (floor {d.noise_floor:.3f}); best {top.effect} "
-                   f"{json.dumps(top.params, default=float)} -> held out {top.gap_after_heldout:.3f} m "
-                   f"({d.wall_s:.0f} s)")
-    click.echo(f"wrote {files['json']} ({time.perf_counter() - t0:.0f} s)")
+        say(f"{name}: gap {d.gap_before:.3f} m (floor {d.noise_floor:.3f}); best {top.effect} "
+            f"{json.dumps(top.params, default=float)} -> held out {top.gap_after_heldout:.3f} m ({d.wall_s:.0f} s)")
+    click.echo(f"wrote {files['json']} and {files['html'].name}; total {progress.elapsed_s:.1f} s")
 
 
 def _out_folder(out_dir: Path | None, update_committed: bool) -> Path:

@@ -8,7 +8,8 @@ Modules by concern, data flowing down the list:
   registry (`solver.effects.Param`).
 * `evaluate`: the simulation of a log under effects, as a record, and its
   residual (`flighttest.residual`, the comparison validation uses too; the gap).
-* `where`: the residual's where-map (channel, station, phase, band).
+* `where`: the residual's where-map (channel, station, phase, band; channel x
+  phase and station x band tables; the log and simulation thinned for overlays).
 * `fit`: `EffectCalibrator` (fit / score) and the folds (`LeaveOneLogOut`,
   `TimeBlocks`).
 * `screen`: each effect's sensitivity directions and the share of the

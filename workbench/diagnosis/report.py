@@ -9,9 +9,12 @@ The section draws from diagnosis.json alone: the where-map as heat maps
 (gap over noise floor by channel, phase, station and band), the ranking as a
 table and the calibrated parameters with their standard errors, the gap per
 channel before and after the best explanation, and the selftest's confusion
-matrix. diagnosis.json holds no time histories, so the best explanation is not
-overlaid on the log's traces here (`workbench validate` draws the calibrated
-variant over the logs)."""
+matrix. Per log, channel x phase and (the hose) station x band heat maps
+before and after the best explanation, and the log, the baseline and the best
+explanation overlaid (the drogue channel with the largest gap over time, or a
+trail's hose mean shape), from the where-map's tables and thinned series; a
+diagnosis.json written before those keys existed renders without these
+figures, with a note saying so."""
 from __future__ import annotations
 
 import json
@@ -85,11 +88,13 @@ def _params_text(c) -> str:
     return "<br/>".join(f"{esc(e)}.{esc(k)} = {v:.3g} ± {s[e][k]:.2g}" for e, d in p.items() for k, v in d.items())
 
 
-def _heat(ax, values, rows, cols, title, annotate):
-    """A heat map of gap / noise floor (log colour scale), each cell annotated."""
+def _heat(ax, values, rows, cols, title, annotate, vmax=None):
+    """A heat map of gap / noise floor (log colour scale up to `vmax`, default
+    the largest value), each cell annotated."""
     from matplotlib.colors import LogNorm
     v = np.array(values, float)
-    im = ax.imshow(np.clip(v, 0.1, None), aspect="auto", cmap="viridis", norm=LogNorm(vmin=0.5, vmax=max(2.0, np.nanmax(v))))
+    im = ax.imshow(np.clip(v, 0.1, None), aspect="auto", cmap="viridis",
+                   norm=LogNorm(vmin=0.5, vmax=vmax or max(2.0, np.nanmax(v))))
     ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right", fontsize=7)
     ax.set_yticks(range(len(rows)), rows, fontsize=7)
     ax.set_title(title, fontsize=9)
@@ -141,6 +146,93 @@ def _where_figure(name: str, d: dict):
     return Figure(figure_png(fig), f"{esc(name)}: where the baseline's gap lies. Colour: gap over the log's own "
                                    f"noise floor (below {NOISE_FACTOR:g}: noise); numbers: the gap in metres.",
                   f"diagnosis-{name.replace('/', '-')}-where")
+
+
+def _cross_figure(name: str, log: str, before: dict, after: dict | None, effect: str):
+    """One log's channel x phase and station x band tables as heat maps of gap
+    over noise floor, baseline and (when there is one) best explanation side
+    by side; a cell reads its gap (m) over its ratio to the floor."""
+    from matplotlib.figure import Figure as MplFigure
+    tables = [("channel x phase", "channel_phase", False), ("station x band (hose)", "station_band", True)]
+    tables = [t for t in tables if before.get(t[1])]
+    states = [("baseline", before)] + ([(f"with {effect}", after)] if after else [])
+    panels = [(f"{title}, {state}", m[key], flip) for title, key, flip in tables for state, m in states]
+    ratios = [np.array([[np.nan if g is None or not f else g / f for g, f in zip(gr, fr)]
+                        for gr, fr in zip(p["gap_m"], p["floor_m"])], float) for _, p, _ in panels]
+    vmax = max(2.0, max(np.nanmax(r) for r in ratios))
+    fig = MplFigure(figsize=(11, 3.4 * len(tables)))
+    # room between the rows for the upper maps' column labels
+    axes = fig.subplots(len(tables), len(states), squeeze=False, gridspec_kw={"hspace": 0.7}).ravel()
+    im = None
+    for ax, (title, p, flip), r in zip(axes, panels, ratios):
+        gaps = np.array([[np.nan if g is None else g for g in row] for row in p["gap_m"]], float)
+        rows, cols = p["rows"], p["cols"]
+        if flip:    # a long station axis reads along x
+            r, gaps, rows, cols = r.T, gaps.T, cols, rows
+        text = [[f"{g:.2f}\n{q:.0f}×" for g, q in zip(gr, qr)] for gr, qr in zip(gaps, r)]
+        im = _heat(ax, r, rows, cols, title, text, vmax)
+        if flip:
+            ax.set_xlabel("station along the hose (m)", fontsize=8)
+    # the pad is a share of one row's height: under the lowest row's tick labels
+    cb = fig.colorbar(im, ax=list(axes), orientation="horizontal", fraction=0.05, pad=0.25 / len(tables) + 0.03,
+                      aspect=60)
+    cb.set_label("gap / noise floor (-); cells: gap (m) over gap / floor", fontsize=8)
+    return Figure(figure_png(fig), f"{esc(name)}, {esc(log)}: the gap by channel and test phase"
+                  + (" and along the hose by band" if len(tables) > 1 else "")
+                  + (f", before and after {esc(effect)}" if after else " (the baseline is ranked first)")
+                  + f". Colour: the gap over the log's own noise floor (below {NOISE_FACTOR:g}: noise); "
+                    "a blank cell has no component.",
+                  f"diagnosis-{name.replace('/', '-')}-{log}-cross")
+
+
+def _overlay_figure(name: str, log: str, before: dict, after: dict | None, effect: str):
+    """The log, the baseline and the best explanation overlaid: the drogue
+    channel with the largest baseline gap over time, or a trail's hose mean shape."""
+    from matplotlib.figure import Figure as MplFigure
+    sb = before["series"]
+    fig = MplFigure(figsize=(11, 3.0))
+    ax = fig.subplots()
+    styles = [("log", "k", "-", 1.6), ("baseline", "tab:red", "--", 1.3), (f"with {effect}", "tab:blue", "-.", 1.3)]
+    series = [sb] + ([after["series"]] if after else [])
+    if sb["kind"] == "hose shape":
+        traces = [(sb["log"]["x_m"], sb["log"]["z_m"])] + [(s["sim"]["x_m"], s["sim"]["z_m"]) for s in series]
+        ax.set_xlabel("x along the trail (m)")
+        ax.set_ylabel("hose mean shape z (m)")
+        what = "the hose's mean shape"
+    else:
+        gaps = {c: before["by_channel"][f"drogue {c}"]["gap_m"] for c in "xyz"}
+        c = max(gaps, key=gaps.get)
+        traces = [(sb["t_s"], sb["log"][c])] + [(s["t_s"], s["sim"][c]) for s in series]
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel(f"drogue {c} (m)")
+        what = f"the drogue's {c} (its largest gap), means over {len(sb['t_s'])} equal time bins"
+    for (lab, col, ls, lw), (x, y) in zip(styles, traces):
+        ax.plot(x, np.array(y, float), color=col, ls=ls, lw=lw, marker="o" if lab == "log" and len(x) < 60 else None,
+                ms=3, label=lab)
+    ax.grid(alpha=0.3)
+    ax.set_title(log, fontsize=9)
+    legend_below(fig, ax, ncol=3)
+    fig.tight_layout()
+    return Figure(figure_png(fig), f"{esc(name)}, {esc(log)}: {what}: the log (solid), the baseline (dashed)"
+                  + (f" and the best explanation, {esc(effect)} with its parameters fitted on all the logs "
+                     "(dash-dot)" if after else "") + ".",
+                  f"diagnosis-{name.replace('/', '-')}-{log}-overlay")
+
+
+def _per_log_figures(name: str, d: dict) -> list:
+    """Per log, the heat maps and the overlay; a note instead when the
+    diagnosis.json predates their tables and series."""
+    after_all = d.get("gap_after_best") or {}
+    effect = d["ranking"][0]["effect"] if d["ranking"] else "none"
+    out = []
+    for log, before in d["gap"].items():
+        after = after_all.get(log)
+        if "channel_phase" not in before or "series" not in before:
+            return [Para("This diagnosis.json predates the channel x phase and station x band tables and the "
+                         "overlay series of the where-map, so those figures are left out; run "
+                         "workbench diagnose again to draw them.", "note")]
+        out += [_cross_figure(name, log, before, after, effect), _overlay_figure(name, log, before, after, effect)]
+    return out
 
 
 def _ranking_figure(name: str, d: dict):
@@ -209,7 +301,7 @@ def _before_after_figure(name: str, d: dict):
     legend_below(fig, axes[0], ncol=3)
     fig.tight_layout()
     return Figure(figure_png(fig), f"{esc(name)}: the gap per channel before and after the best explanation, "
-                                   "per log (from the where-maps; diagnosis.json holds no time histories to overlay).",
+                                   "per log (from the where-maps).",
                   f"diagnosis-{name.replace('/', '-')}-before-after")
 
 
@@ -278,6 +370,7 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
         ba = _before_after_figure(name, d)
         if ba is not None:
             out.append(ba)
+        out += _per_log_figures(name, d)
     if diag.get("findings"):
         out += [Heading(2, "Findings of the diagnosis", "diagnosis-findings"),
                 Table(["finding"], [[Cell(esc(s))] for s in diag["findings"]], [100])]
