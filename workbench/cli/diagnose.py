@@ -24,11 +24,22 @@ from workbench.errors import InputError
 @click.option("--workers", type=int, default=None, help="Local worker processes (default: all cores).")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the candidate fits on a Dask distributed cluster (e.g. tcp://host:8786).")
-def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, scheduler) -> None:
+@click.option("--proving-ground", "proving", type=click.Choice(["own", "independent"]), default="own",
+              show_default=True, help="Selftest logs from the diagnosis's own model, or from the independent-form "
+                                      "proving ground (workbench.proving).")
+@click.option("--family", type=click.Choice(["single", "multi"]), default="single", show_default=True,
+              help="Proving ground: one effect per log, or 2-3 at once.")
+@click.option("--update-committed", is_flag=True,
+              help="Let the proving ground write its figures into the committed reports/diagnose/.")
+def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, scheduler, proving, family,
+             update_committed) -> None:
     """Where the simulation departs from LOGS, which unmodelled effect explains it, how far the gap shrinks."""
     from workbench import diagnosis as D
     t0 = time.perf_counter()
     try:
+        if selftest and proving == "independent":
+            _proving_ground(n_logs, family, seed, n_elements, workers, scheduler, out_dir, update_committed)
+            return
         if selftest:
             from workbench.diagnosis.selftest import run_selftest
             out_dir.mkdir(parents=True, exist_ok=True)
@@ -60,3 +71,19 @@ def diagnose(logs, out_dir, selftest, n_logs, seed, n_elements, workers, schedul
                    f"{json.dumps(top.params, default=float)} -> held out {top.gap_after_heldout:.3f} m "
                    f"({d.wall_s:.0f} s)")
     click.echo(f"wrote {files['json']} ({time.perf_counter() - t0:.0f} s)")
+
+
+COMMITTED = Path(__file__).resolve().parents[2] / "reports" / "diagnose"
+
+
+def _proving_ground(n_logs, family, seed, n_elements, workers, scheduler, out_dir, update_committed) -> None:
+    """The diagnosis scored on the independent-form proving ground; its
+    figures as proving-<family>.json and .txt under `out_dir`."""
+    if out_dir.resolve() == COMMITTED.resolve() and not update_committed:
+        raise InputError(f"--out {out_dir}: the proving ground does not write into the committed reports/diagnose/ "
+                         f"unless --update-committed; give another --out")
+    from workbench.proving.campaign import run_campaign, text, write
+    r = run_campaign(n_logs, family, seed, n_elements, workers, scheduler, out_dir)
+    files = write(r, out_dir)
+    click.echo(text(r), nl=False)
+    click.echo(f"wrote {files['json']} and {files['text']}")

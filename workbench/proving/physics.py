@@ -13,8 +13,8 @@ diagnosis calibrates:
   differently with element length and frequency;
 * bench-property and data-sheet uncertainty (`SPREAD`): EI, EA, drogue mass,
   drag and lift coefficients drawn about their sheet or table values;
-* the drogue's reference point: its centre of pressure 0.1-0.3 m off the data
-  sheet's (either way) and its centre of mass anywhere between 35 and 65 %
+* the drogue's reference point: its centre of pressure 0.1-0.3 m aft of the
+  data sheet's and its centre of mass anywhere between 35 and 65 %
   of the way to it (the model: half way), with a little hinge damping (the
   model: none);
 * the tanker wake, when on, of another shape: its core radius, offsets and
@@ -47,7 +47,10 @@ SPREAD = {
     "drogue_cd": 0.05,         # wind-tunnel repeatability and blockage correction
     "drogue_cl": 0.15,         # a small coefficient measured as a difference: the least certain
 }
-CP_OFFSET_M = (0.1, 0.3)      # drogue centre of pressure off the data sheet's (either way)
+# drogue centre of pressure aft of the data sheet's: a canopy flying in a hose's
+# wake and a coupling's length the sheet leaves out (forward, a short data-sheet
+# lever would leave a link of a few cm, far stiffer than any drogue)
+CP_OFFSET_M = (0.1, 0.3)
 CG_SHARE = (0.35, 0.65)       # centre of mass as a share of the hinge-to-CP distance
 HINGE_DAMPING = (0.0, 5.0)    # N m s/rad: a little friction in the ball hinge
 ZETA_AXIAL = (0.3, 1.0)       # damping ratio of an element's axial mode
@@ -82,7 +85,7 @@ def draw_form(rng, kind: str) -> dict:
             "zeta_axial": float(rng.uniform(*ZETA_AXIAL)), "zeta_bending": float(rng.uniform(*ZETA_BENDING)),
             "drogue_mass_factor": _scatter(rng, "drogue_mass"), "drogue_cd_factor": _scatter(rng, "drogue_cd"),
             "drogue_cl_factor": _scatter(rng, "drogue_cl"),
-            "cp_offset_m": float(rng.uniform(*CP_OFFSET_M) * rng.choice([-1.0, 1.0])),
+            "cp_offset_m": float(rng.uniform(*CP_OFFSET_M)),
             "cg_share": float(rng.uniform(*CG_SHARE)), "hinge_damping_N_m_s": float(rng.uniform(*HINGE_DAMPING))}
 
 
@@ -111,7 +114,7 @@ def truth_model(case: Case, rec: FlightRecord, form: dict) -> Model:
     hose = dataclasses.replace(h, element_constants=LossFactorHose(h.EI, h.EA, h.mass_per_length,
                                                                    form["zeta_axial"], form["zeta_bending"]))
     d = model.drogue
-    cp = max(0.1, d.cp_aft_of_hinge + form["cp_offset_m"])
+    cp = d.cp_aft_of_hinge + form["cp_offset_m"]
     drogue = dataclasses.replace(d, mass=d.mass * form["drogue_mass_factor"], cd=d.cd * form["drogue_cd_factor"],
                                  cl=d.cl * form["drogue_cl_factor"], cp_aft_of_hinge=cp,
                                  cg_aft_of_hinge=form["cg_share"] * cp)
