@@ -36,15 +36,16 @@ def plan(n: int, family: str, seed: int) -> list[tuple[str, tuple, int]]:
         raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
     rng = np.random.default_rng(seed)
     kinds = list(KIND_EFFECTS)
+    seeds = rng.integers(1, 2 ** 31 - 1, size=n)
     out = []
-    for i in range(n):
+    for i, s in enumerate(seeds):
         kind = kinds[i % len(kinds)]
         effs = KIND_EFFECTS[kind]
-        if family == "single":
+        if family == "single":   # the kind's effects in turn
             chosen = (effs[(i // len(kinds)) % len(effs)],)
         else:
             chosen = tuple(sorted(rng.choice(effs, size=int(rng.integers(2, 4)), replace=False).tolist()))
-        out.append((kind, chosen, int(rng.integers(1, 2 ** 31 - 1))))
+        out.append((kind, chosen, int(s)))
     return out
 
 

@@ -17,6 +17,8 @@ diagnosis calibrates:
   data sheet's and its centre of mass anywhere between 35 and 65 %
   of the way to it (the model: half way), with a little hinge damping (the
   model: none);
+* engagements: the probe holds the drogue through a compliant coupling
+  (`PROBE_COUPLING_N_M`, damping ratio `PROBE_COUPLING_ZETA`), not rigidly;
 * the tanker wake, when on, of another shape: its core radius, offsets and
   fuselage drag area drawn (the diagnosis fits its strength at the default
   shape).
@@ -55,6 +57,11 @@ CG_SHARE = (0.35, 0.65)       # centre of mass as a share of the hinge-to-CP dis
 HINGE_DAMPING = (0.0, 5.0)    # N m s/rad: a little friction in the ball hinge
 ZETA_AXIAL = (0.3, 1.0)       # damping ratio of an element's axial mode
 ZETA_BENDING = (0.3, 1.0)     # damping ratio of an element's rocking mode
+# N/m: the probe mast and the drogue's coupling latches give (of the order of a
+# fighter's refuelling-probe bending stiffness; unmeasured here). A rigid hold
+# at 80-120 elements also snaps the hose at contact hard enough to diverge.
+PROBE_COUPLING_N_M = (2e4, 1e5)
+PROBE_COUPLING_ZETA = (0.5, 0.9)
 
 
 def _scatter(rng, name: str) -> float:
@@ -86,7 +93,9 @@ def draw_form(rng, kind: str) -> dict:
             "drogue_mass_factor": _scatter(rng, "drogue_mass"), "drogue_cd_factor": _scatter(rng, "drogue_cd"),
             "drogue_cl_factor": _scatter(rng, "drogue_cl"),
             "cp_offset_m": float(rng.uniform(*CP_OFFSET_M)),
-            "cg_share": float(rng.uniform(*CG_SHARE)), "hinge_damping_N_m_s": float(rng.uniform(*HINGE_DAMPING))}
+            "cg_share": float(rng.uniform(*CG_SHARE)), "hinge_damping_N_m_s": float(rng.uniform(*HINGE_DAMPING)),
+            "probe_coupling_N_m": float(rng.uniform(*PROBE_COUPLING_N_M)),
+            "probe_coupling_zeta": float(rng.uniform(*PROBE_COUPLING_ZETA))}
 
 
 def truth_case(kind: str, raw: dict, rec: FlightRecord, form: dict, effects: dict, reel: str | None = None) -> Case:
@@ -119,3 +128,9 @@ def truth_model(case: Case, rec: FlightRecord, form: dict) -> Model:
                                  cl=d.cl * form["drogue_cl_factor"], cp_aft_of_hinge=cp,
                                  cg_aft_of_hinge=form["cg_share"] * cp)
     return dataclasses.replace(model, hose=hose, drogue=drogue)
+
+
+def probe_coupling(form: dict, model: Model) -> tuple[float, float]:
+    """(stiffness N/m, damping N s/m) of the probe's hold on the drogue."""
+    k = form["probe_coupling_N_m"]
+    return k, 2.0 * form["probe_coupling_zeta"] * math.sqrt(k * model.drogue.mass)
