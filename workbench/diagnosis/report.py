@@ -100,12 +100,14 @@ def report_section(diag: dict, title: str = "Sim-to-real gap diagnosis") -> dict
                      f"{_f(d['noise_floor'])} m ({'real' if d['gap_real'] else 'within noise'}); held out by "
                      f"{e(d['held_out_scheme'])}; {d['n_elements']} elements; {d['wall_s']:.0f} s.</p>")
         rows = "".join(
-            f"<tr><td>{i + 1}</td><td>{e(c['effect'])}</td><td>{_params_text(c)}</td><td>{_f(c['gap_before'])}</td>"
+            f"<tr><td>{i + 1}</td><td>{e(c['effect'])}{' (implausible: ' + e(c['implausible']) + ')' if c.get('implausible') else ''}"
+            f"</td><td>{_params_text(c)}</td><td>{_f(c['gap_before'])}</td>"
             f"<td>{_f(c['gap_after_train'])}</td><td>{_f(c['gap_after_heldout'])}</td>"
-            f"<td>{_f(100 * c['shrink_heldout'] if c.get('shrink_heldout') is not None else None, '{:.0f} %')}</td></tr>"
+            f"<td>{_f(100 * c['shrink_heldout'] if c.get('shrink_heldout') is not None else None, '{:.0f} %')}</td>"
+            f"<td>{_f(c.get('probability'), '{:.2f}')}</td></tr>"
             for i, c in enumerate(d["ranking"]))
         parts.append("<table><tr><th>#</th><th>effect</th><th>parameters (&plusmn; 1 s.e.)</th><th>gap before</th>"
-                     "<th>after, train</th><th>after, held out</th><th>held-out shrink</th></tr>" + rows + "</table>")
+                     "<th>after, train</th><th>after, held out</th><th>held-out shrink</th><th>probability</th></tr>" + rows + "</table>")
         if d.get("failed"):
             parts.append("<p>Failed, not ranked: " + "; ".join(f"{e(c['effect'])} ({e(c['message'])})"
                                                               for c in d["failed"]) + ".</p>")
