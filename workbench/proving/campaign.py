@@ -30,17 +30,19 @@ MIN_EACH = 3   # every effect at least this often in the one-at-a-time family wh
 
 def plan(n: int, family: str, seed: int) -> list[tuple[str, tuple, int]]:
     """n (kind, effects, seed) draws. single: kinds in turn, each kind's
-    effects in turn, so every effect appears as often as n allows; multi: 2-3
-    distinct effects of the kind at random."""
+    effects in turn in an order shuffled once by `seed` (a small campaign
+    still sees many effects), so every effect appears as often as n allows;
+    multi: 2-3 distinct effects of the kind at random."""
     if family not in FAMILIES:
         raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
     rng = np.random.default_rng(seed)
     kinds = list(KIND_EFFECTS)
+    order = {k: [KIND_EFFECTS[k][j] for j in rng.permutation(len(KIND_EFFECTS[k]))] for k in kinds}
     seeds = rng.integers(1, 2 ** 31 - 1, size=n)
     out = []
     for i, s in enumerate(seeds):
         kind = kinds[i % len(kinds)]
-        effs = KIND_EFFECTS[kind]
+        effs = order[kind]
         if family == "single":   # the kind's effects in turn
             chosen = (effs[(i // len(kinds)) % len(effs)],)
         else:
