@@ -168,3 +168,26 @@ def test_the_proving_ground_does_not_write_into_the_committed_reports(tmp_path):
     r = CliRunner().invoke(cli, ["diagnose", "--selftest", "--proving-ground", "independent",
                                  "--out", str(ROOT / "reports" / "diagnose")])
     assert r.exit_code == 2 and "--update-committed" in r.output
+
+
+def test_findings_say_what_is_implausible_and_which_explanation_is_likeliest():
+    from workbench.diagnosis.findings import findings
+    from workbench.diagnosis.result import FamilyDiagnosis
+    hi = EFFECTS["drogue_drag"].params["scale"].search[1]
+    top = Candidate("steady_wind", ["steady_wind"], 2, params={"steady_wind": {"vertical_mps": 2.0, "lateral_mps": 1.0}},
+                    param_stderr={"steady_wind": {"vertical_mps": 0.1, "lateral_mps": 0.1}}, gap_before=0.3,
+                    gap_after_heldout=0.10, shrink_heldout=2 / 3, probability=0.3)
+    pair = Candidate("hose_drag+steady_wind", ["hose_drag", "steady_wind"], 3, gap_after_heldout=0.09,
+                     probability=0.7, why_not_first="does not cut steady_wind's held-out gap by 25 %")
+    bad = Candidate("drogue_drag", ["drogue_drag"], 1, params={"drogue_drag": {"scale": hi}},
+                    gap_after_heldout=0.2, probability=0.0, implausible="drogue_drag.scale = 3 on its search bound")
+    none = Candidate("none", [], 0, gap_after_heldout=0.3, probability=0.0)
+    d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["a"], n_elements=20,
+                        gap_definition="", gap_before=0.3, noise_floor=0.01, gap_real=True, held_out_scheme="",
+                        screen={}, screened_out=[], not_applicable={}, ranking=[top, pair, bad, none], failed=[],
+                        remaining_unexplained={"gap_m": 0.1, "above_noise_m": 0.0995}, gap={}, gap_after_best={},
+                        wall_s=1.0)
+    text = "\n".join(findings(d))
+    assert "probability 0.30" in text
+    assert "drogue_drag (rank 3) is not physically plausible" in text
+    assert "hose_drag+steady_wind carries the largest probability (0.70)" in text

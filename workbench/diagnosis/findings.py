@@ -54,6 +54,11 @@ def findings(d: FamilyDiagnosis) -> list[str]:
                f"{d.remaining_unexplained['above_noise_m']:.3f} m of it above the noise floor"
                + _probability(top) + ".")
     out += _plausibility(d)
+    likeliest = max(d.ranking, key=lambda c: -1.0 if c.probability is None else c.probability)
+    if likeliest is not top and likeliest.probability is not None:
+        out.append(f"{likeliest.effect} carries the largest probability ({likeliest.probability:.2f}) on the "
+                   f"held-out evidence but ranks behind {top.effect}"
+                   + (f": {likeliest.why_not_first}." if likeliest.why_not_first else "."))
     for log, w in (d.gap_after_best or {}).items():
         real = sorted((p for p in w["by_phase"] if p["real"]), key=lambda p: -p["gap_m"])
         chans = sorted(((k, v) for k, v in w["by_channel"].items() if v["real"]), key=lambda kv: -kv[1]["gap_m"])
