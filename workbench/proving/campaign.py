@@ -35,7 +35,7 @@ def plan(n: int, family: str, seed: int) -> list[tuple[str, tuple, int]]:
     multi: 2-3 distinct effects of the kind at random."""
     if family not in FAMILIES:
         raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng([seed, FAMILIES.index(family)])   # the families draw apart
     kinds = list(KIND_EFFECTS)
     order = {k: [KIND_EFFECTS[k][j] for j in rng.permutation(len(KIND_EFFECTS[k]))] for k in kinds}
     seeds = rng.integers(1, 2 ** 31 - 1, size=n)
@@ -108,7 +108,7 @@ def run_campaign(n: int, family: str = "single", seed: int = 2026, n_elements: i
     """Generate `n` proving-ground logs of `family` under `out_dir` (or a
     temporary folder), diagnose each blind; the figures and one row per log."""
     t = time.perf_counter()
-    logs = Path(tempfile.mkdtemp(prefix="proving-") if out_dir is None else out_dir) / "logs"
+    logs = Path(tempfile.mkdtemp(prefix="proving-") if out_dir is None else out_dir) / f"logs-{family}"
     logs.mkdir(parents=True, exist_ok=True)
     jobs = [(k, e, s, str(logs), n_elements or DEFAULT_ELEMENTS) for k, e, s in plan(n, family, seed)]
     mapper = _dask_mapper(scheduler) if scheduler else _local_mapper(workers)
