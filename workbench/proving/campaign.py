@@ -67,7 +67,8 @@ def run_one(job) -> dict:
     unnameable = sorted(e for e in true if e in d.not_applicable)
     return {**truth, "log": path.name, "truth": "+".join(sorted(true)), "top": top.effect,
             "top_effects": list(top.effects), "top_params": top.params,
-            "top_probability": getattr(top, "probability", None),
+            "top_probability": top.probability, "top_implausible": top.implausible,
+            "implausible": {c.effect: c.implausible for c in d.ranking if c.implausible},
             "correct": set(top.effects) == true, "recall": len(true & set(top.effects)) / len(true),
             "nameable": not unnameable, "unnameable": unnameable,
             "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
