@@ -63,6 +63,9 @@ def test_diagnosis_json_contract_and_dask_scheduler(tmp_path):
     top = js["ranking"][0]
     assert top["effect"] == "drogue_drag"
     assert top["gap_after_heldout"] < 0.3 * top["gap_before"]
+    # held-out evidence as probabilities over every ranked candidate, "none" included
+    assert sum(c["probability"] for c in js["ranking"]) == pytest.approx(1.0, abs=1e-12)
+    assert top["probability"] == max(c["probability"] for c in js["ranking"])
     w = js["gap"][path.stem]
     assert {"by_channel", "by_station", "by_phase", "by_band"} <= set(w)
     assert w["real"] and w["gap_m"] > w["noise_floor_m"]

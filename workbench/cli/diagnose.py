@@ -39,8 +39,13 @@ COMMITTED = ROOT / "reports" / "diagnose"
               help="Run the candidate fits on a Dask distributed cluster (e.g. tcp://host:8786).")
 @click.option("--no-progress", is_flag=True, help="No progress display (CI); the summary lines stay.")
 @click.option("--quiet", is_flag=True, help="Only the final line and errors.")
+@click.option("--proving-ground", "proving", type=click.Choice(["own", "independent"]), default="own",
+              show_default=True, help="Selftest logs from the diagnosis's own model, or from the independent-form "
+                                      "proving ground (workbench.proving).")
+@click.option("--family", type=click.Choice(["single", "multi"]), default="single", show_default=True,
+              help="Proving ground: one effect per log, or 2-3 at once.")
 def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_elements, workers,
-             scheduler, no_progress, quiet) -> None:
+             scheduler, no_progress, quiet, proving, family) -> None:
     """Where the simulation departs from LOGS, which unmodelled effect explains it, how far the gap shrinks."""
     from workbench.progress import Progress
     # the display comes up first: the imports below take seconds
@@ -54,7 +59,11 @@ def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_e
         out_dir = _out_folder(out_dir, update_committed)
         # the folder checked, unclaimed by another run and locked before any computing
         click.get_current_context().with_resource(
-            claim(out_dir, ["diagnosis.json", "selftest.json"], force or update_committed))
+            claim(out_dir, ["diagnosis.json", "selftest.json", "proving-single.json", "proving-multi.json"],
+                  force or update_committed))
+        if selftest and proving == "independent":
+            _proving_ground(n_logs, family, seed, n_elements, workers, scheduler, out_dir, progress)
+            return
         if selftest:
             from workbench.diagnosis.selftest import run_selftest
             progress.add(n_logs, "generating and diagnosing the logs")
@@ -100,3 +109,16 @@ def _out_folder(out_dir: Path | None, update_committed: bool) -> Path:
             raise InputError("--out and --update-committed: give one, not both")
         return COMMITTED
     return out_dir if out_dir is not None else timestamped(ROOT / "reports" / "out", "diagnose")
+
+
+def _proving_ground(n_logs, family, seed, n_elements, workers, scheduler, out_dir, progress) -> None:
+    """The diagnosis scored on the independent-form proving ground; its
+    figures as proving-<family>.json and .txt under `out_dir`."""
+    from workbench.proving.campaign import run_campaign, text, write
+    progress.add(n_logs, f"proving ground ({family}): generating and diagnosing the logs")
+    r = run_campaign(n_logs, family, seed, n_elements, workers, scheduler, out_dir,
+                     progress=lambda row: progress.done(f"{row.get('log', 'log')} diagnosed"))
+    files = write(r, out_dir)
+    progress.close()
+    click.echo(text(r), nl=False)
+    click.echo(f"wrote {files['json']} and {files['text']}")

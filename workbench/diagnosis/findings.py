@@ -20,6 +20,22 @@ def _bound_note(effect: str, name: str, v: float) -> str:
     return ""
 
 
+def _probability(c) -> str:
+    return f" (probability {c.probability:.2f} from the held-out evidence)" if c.probability is not None else ""
+
+
+def _plausibility(d: FamilyDiagnosis) -> list[str]:
+    """One sentence per ranked candidate whose fit is not physically plausible."""
+    out = []
+    for i, c in enumerate(d.ranking):
+        if c.implausible:
+            moved = f" {c.why_not_first}." if c.why_not_first and "implausible" in c.why_not_first else ""
+            out.append(f"{c.effect} (rank {i + 1}) is not physically plausible: {c.implausible}; it is ranked "
+                       f"behind plausible explanations whose held-out gap is within the noise floor of its own."
+                       + moved)
+    return out
+
+
 def findings(d: FamilyDiagnosis) -> list[str]:
     """Plain sentences from a family's numbers: what was found, how sure, what is left."""
     top = d.ranking[0]
@@ -27,14 +43,22 @@ def findings(d: FamilyDiagnosis) -> list[str]:
     head = (f"{d.family} ({', '.join(d.logs)}): baseline gap {d.gap_before:.3f} m against a noise floor "
             f"of {d.noise_floor:.3f} m.")
     if top.effect == "none":
-        out.append(head + f" No effect needed: {top.why or ''}.")
+        out.append(head + f" No effect needed: {top.why or ''}" + _probability(top) + ".")
+        out += _plausibility(d)
         return out
     p, se = top.params, top.param_stderr
     ptxt = ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}{_bound_note(e, k, v)}"
                      for e, dd in p.items() for k, v in dd.items())
     out.append(head + f" Best explanation: {top.effect} ({ptxt}); held-out gap {top.gap_before:.3f} -> "
                f"{top.gap_after_heldout:.3f} m ({100 * top.shrink_heldout:.0f} % smaller), "
-               f"{d.remaining_unexplained['above_noise_m']:.3f} m of it above the noise floor.")
+               f"{d.remaining_unexplained['above_noise_m']:.3f} m of it above the noise floor"
+               + _probability(top) + ".")
+    out += _plausibility(d)
+    likeliest = max(d.ranking, key=lambda c: -1.0 if c.probability is None else c.probability)
+    if likeliest is not top and likeliest.probability is not None:
+        out.append(f"{likeliest.effect} carries the largest probability ({likeliest.probability:.2f}) on the "
+                   f"held-out evidence but ranks behind {top.effect}"
+                   + (f": {likeliest.why_not_first}." if likeliest.why_not_first else "."))
     for log, w in (d.gap_after_best or {}).items():
         real = sorted((p for p in w["by_phase"] if p["real"]), key=lambda p: -p["gap_m"])
         chans = sorted(((k, v) for k, v in w["by_channel"].items() if v["real"]), key=lambda kv: -kv[1]["gap_m"])

@@ -10,7 +10,12 @@ the best (and pairs of them), score each held out and rank them.
    times (1 + `PARAM_PENALTY` per parameter); a pair ranks above its better
    member only if it cuts that member's held-out gap by `PAIR_GAIN` and by
    more than the noise (Occam's rule). A candidate whose simulation fails is
-   recorded with the reason and left out of the ranking.
+   recorded with the reason and left out of the ranking. A fit with a value on
+   its search bound or outside its physical range is flagged and ranked
+   behind every plausible explanation (incl. "none") whose held-out gap is
+   within the noise floor of its own.
+   Each ranked candidate carries a probability: Akaike weights of the held-out
+   residuals under the log's noise model (`probabilities`).
 3. How much: gap before, after on training data, after held out, per log and
    per family, with each parameter's standard error.
 
@@ -20,6 +25,8 @@ from __future__ import annotations
 
 import math
 import os
+
+import numpy as np
 import time
 from pathlib import Path
 from typing import Callable
@@ -34,7 +41,7 @@ from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, NOISE_FACTOR, PAIR_FROM,
                                        PAIR_GAIN, PAIR_WHEN_LEFT, PARAM_PENALTY, SCREEN_KEEP, Setup, applicable,
-                                       calibrated_params, family_of)
+                                       calibrated_params, family_of, to_unit)
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
 
@@ -102,6 +109,58 @@ def _ranked(results: list, singles: list, floor: float) -> list:
     return sorted(results, key=lambda c: c.score)
 
 
+BOUND_SHARE = 0.01   # a value within 1 % of its search range (in the search's scale) of a bound is on it
+
+
+def implausibility(c: Candidate) -> str | None:
+    """Why `c`'s fit is not physically plausible, or None: a value outside its
+    parameter's physical range lo..hi, or on a bound of its search range (the
+    logs want it there or beyond: the effect is standing in for another)."""
+    out = []
+    for eff, name, p in calibrated_params(tuple(c.effects)):
+        v = c.params.get(eff, {}).get(name)
+        if v is None:
+            continue
+        if not (p.lo <= v <= p.hi):
+            out.append(f"{eff}.{name} = {v:.3g} outside its physical range {p.lo:g}..{p.hi:g} {p.unit}")
+        elif p.search and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
+            out.append(f"{eff}.{name} = {v:.3g} on its search bound ({p.search[0]:g}..{p.search[1]:g})")
+    return "; ".join(out) or None
+
+
+def plausible_first(ranking: list, floor: float) -> list:
+    """`ranking` with each implausible candidate moved behind the last
+    plausible one whose held-out gap exceeds its own by no more than the noise
+    floor `floor` (similar gaps: the data cannot tell them apart, physics can)."""
+    for c in ranking:
+        c.implausible = implausibility(c)
+    pos = {}
+    for i, c in enumerate(ranking):
+        pos[id(c)] = float(i)
+        if c.implausible:
+            similar = [j for j, p in enumerate(ranking) if j > i and not p.implausible
+                       and p.gap_after_heldout - c.gap_after_heldout <= floor]
+            if similar:
+                pos[id(c)] = max(similar) + 0.5
+                c.why_not_first = (f"implausible fit ({c.implausible}); {ranking[max(similar)].effect} explains "
+                                   f"the logs as well, within the noise floor {floor:.3f} m")
+    return sorted(ranking, key=lambda c: pos[id(c)])
+
+
+def probabilities(gaps, n_params, floor: float, n: int) -> list[float]:
+    """Akaike weights of candidates from their held-out gaps (RMS, m) over `n`
+    held-out residual components: -2 ln L = n g^2 / s^2 under Gaussian noise of
+    variance s^2 = max(floor^2, g_min^2) (the log's noise, widened to the best
+    candidate's misfit when that is larger, so a model-form remainder is not
+    read as evidence; Burnham & Anderson's quasi-likelihood), plus 2 per
+    parameter. They sum to 1 over the candidates given."""
+    g = np.asarray(gaps, float)
+    s2 = max(floor ** 2, float(np.min(g)) ** 2, 1e-300)
+    aic = n * g ** 2 / s2 + 2.0 * np.asarray(n_params, float)
+    w = np.exp(-0.5 * (aic - aic.min()))
+    return (w / w.sum()).tolist()
+
+
 def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable | None = None,
                     progress: Callable[[str], None] | None = None) -> FamilyDiagnosis:
     """The where-map, ranking and gaps of one family of logs."""
@@ -135,7 +194,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     order = sorted(scores, key=lambda e: -scores[e])
     keep = order[:SCREEN_KEEP]
     say("screen: " + ", ".join(f"{e} {scores[e]:.2f}" for e in order))
-    singles = list(mapper(_score_candidate, [(paths, (e,), setup) for e in keep]))
+    singles = list(mapper(_score_candidate, [(paths, (e,), setup) for e in keep],
+                          progress=lambda c: say(f"fitted {c.effect}")))
     failed += [c for c in singles if not c.success]
     singles = [c for c in singles if c.success]
     singles.sort(key=lambda c: c.gap_after_heldout * (1 + PARAM_PENALTY * c.n_params))
@@ -147,7 +207,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         pairs = [(a, b) for i, a in enumerate(top) for b in top[i + 1:]]
         pairs = [tuple(sorted(pr, key=list(EFFECTS).index)) for pr in pairs]
         say("pairs: " + ", ".join("+".join(p) for p in pairs))
-        fitted = list(mapper(_score_candidate, [(paths, pr, setup) for pr in pairs]))
+        fitted = list(mapper(_score_candidate, [(paths, pr, setup) for pr in pairs],
+                             progress=lambda c: say(f"fitted {c.effect}")))
         failed += [c for c in fitted if not c.success]
         results += [c for c in fitted if c.success]
     for c in failed:
@@ -169,6 +230,11 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         ranking = [none] + results
     else:
         ranking = results + [none]
+    ranking = plausible_first(ranking, floor)
+    n_heldout = sum(len(base[p].r) for p in paths)
+    for c, w in zip(ranking, probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking],
+                                           floor, n_heldout)):
+        c.probability = w
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation is in (its parameters fitted
     # on all logs): what is left for the next effect to explain

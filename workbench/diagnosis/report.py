@@ -348,7 +348,7 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                      f"{fmt(d['gap_before'])} m against a noise floor of {fmt(d['noise_floor'])} m "
                      f"({'real' if d['gap_real'] else 'within noise'}); held out by {esc(d['held_out_scheme'])}; "
                      f"{d['n_elements']} elements; {d['wall_s']:.0f} s.")]
-        rows = [[i + 1, Cell(esc(c["effect"])), Cell(_params_text(c), "small"), c["gap_before"],
+        rows = [[i + 1, Cell(esc(c["effect"]) + (f" (implausible: {esc(c['implausible'])})" if c.get("implausible") else "")), Cell(_params_text(c), "small"), c["gap_before"],
                  c["gap_after_train"], c["gap_after_heldout"],
                  None if c.get("shrink_heldout") is None else 100 * c["shrink_heldout"]]
                 + ([c.get("probability")] if prob else []) for i, c in enumerate(d["ranking"])]

@@ -34,6 +34,8 @@ class Candidate:
     why_not_first: Optional[str] = None
     why: Optional[str] = None             # "none" first: why no effect is needed
     wall_s: Optional[float] = None
+    probability: Optional[float] = None   # from held-out evidence, over the family's ranked candidates
+    implausible: Optional[str] = None     # a fitted value on a search bound or outside its physical range
     success: bool = True
     message: str = ""
 
@@ -49,12 +51,12 @@ class Candidate:
                "param_stderr": self.param_stderr[self.effects[0]] if one else self.param_stderr,
                "gap_before": self.gap_before, "gap_after_train": self.gap_after_train,
                "gap_after_heldout": self.gap_after_heldout, "shrink_heldout": self.shrink_heldout,
-               "score": self.score}
+               "score": self.score, "probability": self.probability}
         if self.effect != "none":
             out.update({"gap_before_train": self.gap_before_train,
                         "gap_after_all_fit_per_log": self.gap_after_all_fit_per_log, "folds": self.folds,
                         "screen_share": self.screen_share, "wall_s": self.wall_s})
-        for k in ("why_not_first", "why"):
+        for k in ("why_not_first", "why", "implausible"):
             if getattr(self, k) is not None:
                 out[k] = getattr(self, k)
         return out
@@ -66,7 +68,7 @@ def _ranking_frame(ranking: list, **extra) -> pd.DataFrame:
         row = {**extra, "rank": i + 1, "effect": c.effect, "n_params": c.n_params,
                "gap_before_m": c.gap_before, "gap_after_train_m": c.gap_after_train,
                "gap_after_heldout_m": c.gap_after_heldout, "shrink_heldout": c.shrink_heldout,
-               "score_m": c.score}
+               "score_m": c.score, "probability": c.probability}
         row.update({f"{e}.{k}": v for e, d in c.params.items() for k, v in d.items()})
         rows.append(row)
     return pd.DataFrame(rows)

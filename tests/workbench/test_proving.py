@@ -1,0 +1,193 @@
+"""The proving ground (workbench.proving) and the diagnosis's plausibility
+rule and probabilities: generated logs keep the log contract, the generator
+and the diagnosis share nothing else, and the ranking's probabilities and
+plausibility order follow their definitions on synthetic gaps."""
+from __future__ import annotations
+
+import ast
+import math
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from numpy.testing import assert_allclose
+
+from flighttest import read_record
+from solver.effects import EFFECTS
+from workbench.diagnosis.rank import implausibility, plausible_first, probabilities
+from workbench.diagnosis.result import Candidate
+from workbench.proving import campaign
+from workbench.proving.generate import DRAWS, KIND_EFFECTS, TRACKER_HZ, generate
+from workbench.proving.physics import LossFactorHose
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _imports(folder: Path) -> set:
+    out = set()
+    for f in folder.glob("*.py"):
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                out.add(node.module)
+            elif isinstance(node, ast.Import):
+                out.update(a.name for a in node.names)
+    return out
+
+
+def test_the_diagnosis_never_imports_the_generator():
+    assert not [m for m in _imports(ROOT / "workbench" / "diagnosis") if m.startswith("workbench.proving")]
+
+
+def test_the_generator_never_imports_the_diagnosis():
+    gen = ROOT / "workbench" / "proving"
+    for name in ("generate.py", "physics.py"):
+        mods = set()
+        for node in ast.walk(ast.parse((gen / name).read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                mods.add(node.module)
+        assert not [m for m in mods if m.startswith("workbench.diagnosis")], name
+
+
+# ---------------------------------------------------------------- probabilities
+
+def test_probabilities_are_akaike_weights_of_the_held_out_gaps():
+    # equal gaps: one more parameter costs a factor e^-1 (AIC's 2 per parameter)
+    w = probabilities([0.1, 0.1], [1, 2], floor=0.05, n=100)
+    assert_allclose(w, [1 / (1 + math.exp(-1)), math.exp(-1) / (1 + math.exp(-1))], rtol=1e-12)
+    # best gap at the noise floor: Delta = n (g^2 - g0^2) / floor^2 = 100 * 0.0011 / 0.0025 = 44
+    w = probabilities([0.05, 0.06], [1, 1], floor=0.05, n=100)
+    assert_allclose(w[1], math.exp(-22) / (1 + math.exp(-22)), rtol=1e-9)
+    # a best gap above the floor widens the noise model to it (model-form remainder is not evidence)
+    w = probabilities([0.2, 0.21, 0.4], [1, 1, 0], floor=0.01, n=50)
+    d = 50 * (0.21 ** 2 - 0.2 ** 2) / 0.2 ** 2
+    d2 = 50 * (0.4 ** 2 - 0.2 ** 2) / 0.2 ** 2 - 2
+    z = 1 + math.exp(-d / 2) + math.exp(-d2 / 2)
+    assert_allclose(w, [1 / z, math.exp(-d / 2) / z, math.exp(-d2 / 2) / z], rtol=1e-12)
+    assert_allclose(sum(w), 1.0, rtol=1e-12)
+
+
+def _cand(effect, params, gap, n_params=1):
+    effs = [] if effect == "none" else effect.split("+")
+    return Candidate(effect, effs, n_params, params=params, gap_after_heldout=gap)
+
+
+def test_a_fit_on_its_search_bound_is_implausible():
+    hi = EFFECTS["drogue_drag"].params["scale"].search[1]
+    assert "search bound" in implausibility(_cand("drogue_drag", {"drogue_drag": {"scale": hi}}, 0.1))
+    assert implausibility(_cand("drogue_drag", {"drogue_drag": {"scale": 1.5}}, 0.1)) is None
+    lo = EFFECTS["hose_drag"].params["crossflow"].lo
+    assert "physical range" in implausibility(_cand("hose_drag", {"hose_drag": {"crossflow": 0.5 * lo}}, 0.1))
+    assert implausibility(_cand("none", {}, 0.1)) is None
+
+
+def test_implausible_ranks_below_a_plausible_explanation_of_similar_gap():
+    hi = EFFECTS["drogue_drag"].params["scale"].search[1]
+    bad = _cand("drogue_drag", {"drogue_drag": {"scale": hi}}, 0.100)
+    good = _cand("hose_drag", {"hose_drag": {"crossflow": 1.8}}, 0.105)
+    none = _cand("none", {}, 0.30, 0)
+    out = plausible_first([bad, good, none], floor=0.01)
+    assert [c.effect for c in out] == ["hose_drag", "drogue_drag", "none"]
+    assert bad.implausible and "hose_drag" in bad.why_not_first
+    # a plausible one more than the noise floor worse does not overtake it: flagged, still first
+    bad = _cand("drogue_drag", {"drogue_drag": {"scale": hi}}, 0.100)
+    far = _cand("hose_drag", {"hose_drag": {"crossflow": 1.8}}, 0.13)
+    out = plausible_first([bad, far, none], floor=0.01)
+    assert [c.effect for c in out] == ["drogue_drag", "hose_drag", "none"]
+    assert bad.implausible and bad.why_not_first is None
+
+
+# ------------------------------------------------------------------ generator
+
+def test_the_loss_factor_law_gives_each_element_its_damping_ratio():
+    h = LossFactorHose(EI=80.0, EA=1.5e6, mu=3.0, zeta_axial=0.4, zeta_bending=0.7)
+    for l in (0.1, 0.2, 0.8):
+        ka, ca, kb, cb = h(l)
+        assert_allclose(ca / (2 * math.sqrt(ka * 3.0 * l)), 0.4, rtol=1e-12)
+        # rocking mode: inertia mu l^3 / 4 about the joint
+        assert_allclose(cb / (2 * math.sqrt(kb * 3.0 * l ** 3 / 4)), 0.7, rtol=1e-12)
+
+
+def test_draws_of_calibrated_parameters_lie_in_their_search_ranges():
+    rng = np.random.default_rng(1)
+    for name, draw in DRAWS.items():
+        for _ in range(50):
+            p = draw(rng, 30.0)
+            assert set(p) <= set(EFFECTS[name].params), name
+            for k, v in p.items():
+                par = EFFECTS[name].params[k]
+                assert par.check(v) is None, (name, k, v)
+                if par.search:
+                    assert par.search[0] <= v <= par.search[1], (name, k, v)
+
+
+def test_every_library_effect_is_drawn_at_least_three_times_in_the_single_family():
+    assert {e for effs in KIND_EFFECTS.values() for e in effs} == set(EFFECTS)
+    n = len(KIND_EFFECTS) * max(len(v) for v in KIND_EFFECTS.values()) * 3
+    counts = Counter(e for _, effs, _ in campaign.plan(n, "single", 7) for e in effs)
+    assert min(counts[e] for e in EFFECTS) >= 3
+    multi = campaign.plan(12, "multi", 7)
+    assert all(2 <= len(set(effs)) <= 3 and set(effs) <= set(KIND_EFFECTS[k]) for k, effs, _ in multi)
+
+
+@pytest.mark.parametrize("kind,effects", [("trail", ["tanker_wake"]), ("pitch_doublet", ["sensor_lag", "gust"])])
+def test_a_generated_log_keeps_the_log_contract(tmp_path, kind, effects):
+    path, truth = generate(kind, effects, 11, tmp_path)
+    rec = read_record(path)
+    card = read_record(ROOT / "flighttest" / "logs" / "flight" / f"{truth['card']}.mcap")
+    assert rec.info.test_kind == kind
+    assert set(rec.topics) == set(card.topics)
+    for k in ("hose", "drogue", "reel", "tanker"):
+        assert rec.info.raw[k] == card.info.raw[k]
+    dt = np.diff(rec.topic("/ors/drogue").index.to_numpy(float))
+    assert_allclose(np.median(dt), 1 / TRACKER_HZ, rtol=1e-6)   # stamps at the tracker's rate; jitter is in what they describe
+    assert truth["effects"] == effects and set(truth["params"]) == set(effects)
+    assert 80 <= truth["form"]["n_elements"] <= 120
+
+
+# ------------------------------------------------------------------- campaign
+
+def test_summary_counts_top1_recall_and_confusion():
+    rows = [dict(kind="trail", effects=["drogue_lift"], truth="drogue_lift", top="drogue_lift",
+                 top_effects=["drogue_lift"], correct=True, recall=1.0, nameable=True, shrink_heldout=0.8,
+                 generate_s=1.0, diagnose_s=9.0),
+            dict(kind="trail", effects=["hose_drag", "turbulence"], truth="hose_drag+turbulence", top="hose_drag",
+                 top_effects=["hose_drag"], correct=False, recall=0.5, nameable=False, shrink_heldout=0.4,
+                 generate_s=1.0, diagnose_s=19.0)]
+    s = campaign.summarise(rows, "multi")
+    assert s["top1"] == 0.5 and s["recall"] == 0.75 and s["top1_nameable"] == 1.0
+    assert s["confusion"] == {"drogue_lift": {"drogue_lift": 1}, "hose_drag+turbulence": {"hose_drag": 1}}
+    assert s["by_effect"]["turbulence"]["n"] == 1 and s["by_effect"]["turbulence"]["top1"] == 0.0
+    assert_allclose(s["seconds_per_log"], 15.0, rtol=1e-12)
+    assert "confusion" in campaign.text({**s, "wall_s": 30.0, "generate_failed": []})
+
+
+def test_the_proving_ground_does_not_write_into_the_committed_reports(tmp_path):
+    from workbench.cli.main import cli
+    r = CliRunner().invoke(cli, ["diagnose", "--selftest", "--proving-ground", "independent",
+                                 "--out", str(ROOT / "reports" / "diagnose")])
+    assert r.exit_code == 2 and "--update-committed" in r.output
+
+
+def test_findings_say_what_is_implausible_and_which_explanation_is_likeliest():
+    from workbench.diagnosis.findings import findings
+    from workbench.diagnosis.result import FamilyDiagnosis
+    hi = EFFECTS["drogue_drag"].params["scale"].search[1]
+    top = Candidate("steady_wind", ["steady_wind"], 2, params={"steady_wind": {"vertical_mps": 2.0, "lateral_mps": 1.0}},
+                    param_stderr={"steady_wind": {"vertical_mps": 0.1, "lateral_mps": 0.1}}, gap_before=0.3,
+                    gap_after_heldout=0.10, shrink_heldout=2 / 3, probability=0.3)
+    pair = Candidate("hose_drag+steady_wind", ["hose_drag", "steady_wind"], 3, gap_after_heldout=0.09,
+                     probability=0.7, why_not_first="does not cut steady_wind's held-out gap by 25 %")
+    bad = Candidate("drogue_drag", ["drogue_drag"], 1, params={"drogue_drag": {"scale": hi}},
+                    gap_after_heldout=0.2, probability=0.0, implausible="drogue_drag.scale = 3 on its search bound")
+    none = Candidate("none", [], 0, gap_after_heldout=0.3, probability=0.0)
+    d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["a"], n_elements=20,
+                        gap_definition="", gap_before=0.3, noise_floor=0.01, gap_real=True, held_out_scheme="",
+                        screen={}, screened_out=[], not_applicable={}, ranking=[top, pair, bad, none], failed=[],
+                        remaining_unexplained={"gap_m": 0.1, "above_noise_m": 0.0995}, gap={}, gap_after_best={},
+                        wall_s=1.0)
+    text = "\n".join(findings(d))
+    assert "probability 0.30" in text
+    assert "drogue_drag (rank 3) is not physically plausible" in text
+    assert "hose_drag+steady_wind carries the largest probability (0.70)" in text

@@ -1,0 +1,154 @@
+"""`workbench diagnose --selftest --proving-ground independent`: the diagnosis
+run blind on proving-ground logs, scored against their truth.
+
+Figures: top-1 (the top explanation's effects are exactly the true set),
+recall (the share of the true effects inside the top explanation), held-out
+shrink of the top explanation, each per effect and per test kind, and a
+confusion matrix (true set -> top explanation). A log whose true set holds an
+effect the diagnosis cannot rank on that kind (not applicable or not
+calibrated: turbulence, gust, a reel lag on a prescribed payout) counts as a
+miss in the plain figures and is also counted apart ("nameable" figures), so
+neither hides the other.
+"""
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from typing import Callable
+from pathlib import Path
+
+import numpy as np
+
+from solver.chain import DivergenceError
+from workbench.diagnosis.rank import diagnose_family
+from workbench.parallel import Mapper
+from workbench.diagnosis.setup import DEFAULT_ELEMENTS, Setup
+from workbench.proving.generate import KIND_EFFECTS, generate
+
+FAMILIES = ("single", "multi")
+MIN_EACH = 3   # every effect at least this often in the one-at-a-time family when n allows
+
+
+def plan(n: int, family: str, seed: int) -> list[tuple[str, tuple, int]]:
+    """n (kind, effects, seed) draws. single: kinds in turn, each kind's
+    effects in turn in an order shuffled once by `seed` (a small campaign
+    still sees many effects), so every effect appears as often as n allows;
+    multi: 2-3 distinct effects of the kind at random."""
+    if family not in FAMILIES:
+        raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
+    rng = np.random.default_rng([seed, FAMILIES.index(family)])   # the families draw apart
+    kinds = list(KIND_EFFECTS)
+    order = {k: [KIND_EFFECTS[k][j] for j in rng.permutation(len(KIND_EFFECTS[k]))] for k in kinds}
+    seeds = rng.integers(1, 2 ** 31 - 1, size=n)
+    out = []
+    for i, s in enumerate(seeds):
+        kind = kinds[i % len(kinds)]
+        effs = order[kind]
+        if family == "single":   # the kind's effects in turn
+            chosen = (effs[(i // len(kinds)) % len(effs)],)
+        else:
+            chosen = tuple(sorted(rng.choice(effs, size=int(rng.integers(2, 4)), replace=False).tolist()))
+        out.append((kind, chosen, int(s)))
+    return out
+
+
+def run_one(job) -> dict:
+    """Generate one log and diagnose it blind (runs in a worker)."""
+    kind, effects, seed, out_dir, n_elements = job
+    t = time.perf_counter()
+    try:
+        path, truth = generate(kind, list(effects), seed, Path(out_dir))
+    except DivergenceError as exc:
+        # the truth model itself failed: no log, reported apart (not scored)
+        return {"kind": kind, "effects": list(effects), "seed": seed, "generate_failed": str(exc)}
+    t_gen = time.perf_counter() - t
+    d = diagnose_family([str(path)], Setup(n_elements), mapper=Mapper(workers=1))
+    top = d.ranking[0]
+    true = set(effects)
+    unnameable = sorted(e for e in true if e in d.not_applicable)
+    return {**truth, "log": path.name, "truth": "+".join(sorted(true)), "top": top.effect,
+            "top_effects": list(top.effects), "top_params": top.params,
+            "top_probability": top.probability, "top_implausible": top.implausible,
+            "implausible": {c.effect: c.implausible for c in d.ranking if c.implausible},
+            "correct": set(top.effects) == true, "recall": len(true & set(top.effects)) / len(true),
+            "nameable": not unnameable, "unnameable": unnameable,
+            "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
+            "shrink_heldout": top.shrink_heldout, "noise_floor": d.noise_floor,
+            "ranking": [c.effect for c in d.ranking], "generate_s": t_gen, "diagnose_s": d.wall_s}
+
+
+def _figures(rows: list) -> dict:
+    if not rows:
+        return {"n": 0}
+    shr = np.array([r["shrink_heldout"] for r in rows], float)
+    nameable = [r for r in rows if r["nameable"]]
+    return {"n": len(rows), "top1": float(np.mean([r["correct"] for r in rows])),
+            "recall": float(np.mean([r["recall"] for r in rows])),
+            "median_shrink": float(np.median(shr)), "share_shrink_ge_70pct": float(np.mean(shr >= 0.7)),
+            "n_nameable": len(nameable),
+            "top1_nameable": float(np.mean([r["correct"] for r in nameable])) if nameable else None}
+
+
+def summarise(rows: list, family: str) -> dict:
+    """The campaign's figures: overall, per effect (every log carrying it),
+    per test kind, and the confusion matrix {true set: {top: count}}."""
+    effects = sorted({e for r in rows for e in r["effects"]})
+    confusion: dict = {}
+    for r in rows:
+        confusion.setdefault(r["truth"], {}).setdefault(r["top"], 0)
+        confusion[r["truth"]][r["top"]] += 1
+    return {"family": family, **_figures(rows),
+            "by_effect": {e: _figures([r for r in rows if e in r["effects"]]) for e in effects},
+            "by_kind": {k: _figures([r for r in rows if r["kind"] == k]) for k in KIND_EFFECTS
+                        if any(r["kind"] == k for r in rows)},
+            "confusion": confusion,
+            "seconds_per_log": float(np.mean([r["generate_s"] + r["diagnose_s"] for r in rows])) if rows else None}
+
+
+def run_campaign(n: int, family: str = "single", seed: int = 2026, n_elements: int | None = None,
+                 workers: int | None = None, scheduler: str | None = None, out_dir: Path | None = None,
+                 progress: Callable | None = None) -> dict:
+    """Generate `n` proving-ground logs of `family` under `out_dir` (or a
+    temporary folder), diagnose each blind; the figures and one row per log."""
+    t = time.perf_counter()
+    logs = Path(tempfile.mkdtemp(prefix="proving-") if out_dir is None else out_dir) / f"logs-{family}"
+    logs.mkdir(parents=True, exist_ok=True)
+    jobs = [(k, e, s, str(logs), n_elements or DEFAULT_ELEMENTS) for k, e, s in plan(n, family, seed)]
+    with Mapper(workers, scheduler) as mapper:
+        rows = mapper(run_one, jobs, progress=progress)
+    failed = [r for r in rows if "generate_failed" in r]
+    rows = [r for r in rows if "generate_failed" not in r]
+    return {**summarise(rows, family), "generate_failed": failed, "generator": "independent", "seed": seed,
+            "n_elements_diagnosis": n_elements or DEFAULT_ELEMENTS, "wall_s": time.perf_counter() - t,
+            "logs_dir": str(logs), "rows": rows}
+
+
+def _pct(v):
+    return "-" if v is None else f"{100 * v:.0f} %"
+
+
+def text(r: dict) -> str:
+    """The campaign in a few lines a reader can check against the JSON."""
+    lines = [f"proving ground (independent form), family {r['family']}: {r['n']} logs, "
+             f"top-1 {_pct(r['top1'])}, recall {_pct(r['recall'])}, median held-out shrink "
+             f"{_pct(r['median_shrink'])}; nameable logs {r['n_nameable']}, top-1 {_pct(r['top1_nameable'])}; "
+             f"{r['seconds_per_log'] or 0:.0f} s per log, {r['wall_s']:.0f} s in all"
+             + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")]
+    for title, part in (("kind", r["by_kind"]), ("effect", r["by_effect"])):
+        for k, v in part.items():
+            lines.append(f"  {title} {k}: n {v['n']}, top-1 {_pct(v['top1'])}, recall {_pct(v['recall'])}, "
+                         f"median shrink {_pct(v['median_shrink'])}")
+    lines.append("confusion (true set -> top explanation: count):")
+    for truth, row in sorted(r["confusion"].items()):
+        lines.append(f"  {truth} -> " + ", ".join(f"{k}: {v}" for k, v in sorted(row.items())))
+    return "\n".join(lines) + "\n"
+
+
+def write(r: dict, out_dir: Path) -> dict:
+    """proving-<family>.json and .txt under `out_dir`; their paths."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    js, tx = out_dir / f"proving-{r['family']}.json", out_dir / f"proving-{r['family']}.txt"
+    js.write_text(json.dumps(r, indent=1, default=float))
+    tx.write_text(text(r))
+    return {"json": js, "text": tx}
