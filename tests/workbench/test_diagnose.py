@@ -16,6 +16,7 @@ from workbench.diagnosis import rank as RK
 from workbench.diagnosis import selftest as S
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.screen import screen_scores
+from workbench.parallel import Mapper
 
 FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
 
@@ -120,7 +121,7 @@ def test_a_diverging_candidate_is_recorded_with_its_reason_and_never_ranked(monk
     monkeypatch.setattr(E, "_simulate_frozen", diverging)
     monkeypatch.setattr(RK, "SCREEN_KEEP", 4)      # the check needs only a few candidates: keep it fast
     path = str(FLIGHT / "TR-KDC10-E7.mcap")
-    d = RK.diagnose_family([path], D.Setup(), mapper=lambda fn, jobs: [fn(j) for j in jobs])
+    d = RK.diagnose_family([path], D.Setup(), mapper=Mapper(workers=1))
     assert all("drogue_lift" not in c.effects for c in d.ranking)
     (failed,) = [c for c in d.failed if c.effect == "drogue_lift"]
     assert not failed.success and reason in failed.message and "DivergenceError" in failed.message
@@ -144,6 +145,6 @@ def test_an_effect_whose_screen_probe_diverges_is_reported_and_not_scored(monkey
     path = str(FLIGHT / "TR-KDC10-E7.mcap")
     base = {path: E.evaluate(path, {}, D.Setup())}
     scores, failed = screen_scores([path], ["drogue_lift", "hose_drag"], D.Setup(), base,
-                                   lambda fn, jobs: [fn(j) for j in jobs])
+                                   Mapper(workers=1))
     assert set(scores) == {"hose_drag"} and 0.0 < scores["hose_drag"] <= 1.0
     assert set(failed) == {"drogue_lift"} and reason in failed["drogue_lift"]

@@ -108,6 +108,9 @@ def _out_folder(out_dir: Path | None, update_committed: bool) -> Path:
         if out_dir is not None:
             raise InputError("--out and --update-committed: give one, not both")
         return COMMITTED
+    if out_dir is not None and out_dir.resolve() == COMMITTED.resolve():
+        # --force overwrites another run's results, never the committed ones
+        raise InputError(f"--out {out_dir}: is the committed diagnosis; write it only with --update-committed")
     return out_dir if out_dir is not None else timestamped(ROOT / "reports" / "out", "diagnose")
 
 
