@@ -93,8 +93,11 @@ def test_diagnosis_html_has_the_report_style_figures_and_provenance():
     html = diagnosis_html(js)
     assert "<style>" in html and "table-layout: fixed" in html
     srcs = re.findall(r'<img src="([^"]*)"', html)
-    # per family: ranking, where-map, before/after; and the selftest's confusion matrix
-    assert len(srcs) == 3 * len(js["families"]) + 1
+    # per family: ranking, where-map, before/after; per log its heat maps and overlay
+    # (a diagnosis.json with the where-map tables); and the selftest's confusion matrix
+    per_log = sum(2 * len(f["logs"]) for f in js["families"].values()
+                  if all("channel_phase" in w for w in f["gap"].values()))
+    assert len(srcs) == 3 * len(js["families"]) + per_log + 1
     assert all(s.startswith("data:image/png;base64,") for s in srcs)
     assert "Provenance" in html and "SHA-256" in html and "flighttest/logs/flight/PD-G3-1.mcap" in html
     assert str(ROOT) not in html and "/tmp/" not in html

@@ -61,6 +61,23 @@ def _coinciding(curves: dict[str, np.ndarray]) -> str:
     return f" The curves of {text} coincide (within {COINCIDE_M * 100:g} cm): one lies over the other."
 
 
+def _hose_lines(ax, case, runs, record_of, label_of=None, lw=1.2) -> None:
+    """Each run's simulated hose (x, z) at its record `record_of(run)`, in its
+    variant's style; `label_of(run, variant label)` words the legend entry."""
+    for i, r in enumerate(runs):
+        p = r.result.hose_points(record_of(r))
+        lab = _variant_label(case, r.variant)
+        ax.plot(p[:, 0], p[:, 2], lw=lw, **_style(i), label=label_of(r, lab) if label_of else lab)
+
+
+def _shape_axes(x_axes, z_axes) -> None:
+    """A hose shape's axes: x aft of the tow point, z up, in metres."""
+    for ax in x_axes:
+        ax.set_xlabel("x aft of the tow point (m)")
+    for ax in z_axes:
+        ax.set_ylabel("z (m, up)")
+
+
 def doublet_figures(outcome) -> list[Figure]:
     """Fig. 11: drogue vertical response to the doublet, log and each variant,
     with the steady-height gate's tolerance drawn about the log."""
@@ -105,14 +122,11 @@ def trail_figures(outcome) -> list[Figure]:
             p = gated[0].result.hose_points(len(gated[0].result.t) - 1)
             ax.fill_between(p[:, 0], p[:, 2] - gate.threshold, p[:, 2] + gate.threshold, color="0.9",
                             label=f"shape gate: {gate.variant} ± {gate.threshold:g} m (RMS)")
-        for i, r in enumerate(runs):
-            p = r.result.hose_points(len(r.result.t) - 1)
+        def with_rms(r, lab):
             rms = r.metrics.get("trail_shape_rms_error_m")
-            lab = _variant_label(outcome.case, r.variant)
-            ax.plot(p[:, 0], p[:, 2], lw=1.4, **_style(i),
-                    label=f"{lab} (shape RMS {rms:.2f} m)" if rms is not None else lab)
-        ax.set_xlabel("x aft of the tow point (m)")
-        ax.set_ylabel("z (m, up)")
+            return f"{lab} (shape RMS {rms:.2f} m)" if rms is not None else lab
+        _hose_lines(ax, outcome.case, runs, lambda r: len(r.result.t) - 1, with_rms, lw=1.4)
+        _shape_axes([ax], [ax])
         ax.grid(alpha=0.3)
         legend_below(fig, ax, ncol=2)
         out.append(_block(fig, f"{outcome.case.id}-{log_id}-trail",
@@ -182,15 +196,10 @@ def engagement_figures(outcome) -> list[Figure]:
             tf = times[np.argmin(np.abs(times - tm))]
             fr = hose[hose["t_s"] == tf]
             ax.plot(fr["x_m"], fr["z_m"], "o", ms=3, color="k", label="flight (video hose points)")
-            for i, r in enumerate(runs):
-                p = r.result.hose_points(int(np.argmin(np.abs(r.result.t - tf))))
-                ax.plot(p[:, 0], p[:, 2], lw=1.2, **_style(i), label=_variant_label(case, r.variant))
+            _hose_lines(ax, case, runs, lambda r, tf=tf: int(np.argmin(np.abs(r.result.t - tf))))
             ax.set_title(f"{name.replace('_', ' ')} (t = {tf:.1f} s)", fontsize=9)
             ax.grid(alpha=0.3)
-        for ax in axes[-1, :]:
-            ax.set_xlabel("x aft of the tow point (m)")
-        for ax in axes[:, 0]:
-            ax.set_ylabel("z (m, up)")
+        _shape_axes(axes[-1, :], axes[:, 0])
         legend_below(fig, axes, ncol=3)
         out.append(_block(fig, f"{case.id}-{log_id}-progression",
                           f"{esc(log_id)}: the hose at the paper's six moments of the engagement, video points "
