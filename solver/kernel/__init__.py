@@ -9,8 +9,8 @@ Everything here works on flat arrays and a scalar parameter vector `P` (indices
 in `solver.kernel.layout`) so that numba compiles it once; the Python side (`solver.integrate`, `solver.stepper`)
 prepares the arrays, handles the reel's remeshing and turns codes into errors.
 """
-from solver.kernel.forces import (FAST, _angle, _apply_torque, _cdn, _joint_angle, _theta_over_sin,  # noqa: F401
-                                  _theta_over_sin_direct, compute_forces, potential_energy)
+# what the Python side calls: the force routine (statics, linearisation), the
+# crossflow drag law (statics), the table lookup (stepper), the time loop
+from solver.kernel.forces import _cdn, compute_forces  # noqa: F401
 from solver.kernel.layout import *  # noqa: F401,F403
-from solver.kernel.steps import (_drive_hold, _implicit_axial_damping, _interp_table,  # noqa: F401
-                                 drum_radius_inertia, run_steps)
+from solver.kernel.steps import _interp_table, drum_radius_inertia, run_steps  # noqa: F401

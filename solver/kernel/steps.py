@@ -156,7 +156,6 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
     F = np.zeros((n, 3))
     tension = np.zeros(n)
     vel = np.empty((n, 3))
-    row = np.empty(6)
     tow_now = np.empty(6)
     tow_next = np.empty(6)
     end_now = np.empty(6)
@@ -164,7 +163,6 @@ def run_steps(t0, dt, nsteps, rec_every, rec_phase, P, n, nh, pos, vel_half, acc
     reel_row = np.empty(2)
     work = extra_work
     rec = rec_start
-    has_drogue = P[P_HAS_DROGUE] != 0.0
     last = n - 1
     mu = P[P_MU]
     # axial damping is applied implicitly below, so the force routine sees none

@@ -5,7 +5,6 @@ from numpy.testing import assert_allclose
 from solver.drogue import DrogueProperties
 from solver.integrate import simulate
 from solver.model import Clamp, EndConstraint, Model, Trajectory
-from solver.state import State
 
 from tests.solver.helpers import crossings_frequency, straight_state
 

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose
 
 from solver.drogue import DrogueProperties
 from solver.hose import HoseProperties
