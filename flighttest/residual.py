@@ -300,7 +300,7 @@ def _vertical(x, z, line) -> np.ndarray:
     return out
 
 
-def _trail(ob: Observation, sim: FlightRecord, parts: _Parts):
+def _trail(ob: Observation, sim: FlightRecord, fixes: np.ndarray, parts: _Parts):
     tv, xv, zv = ob.video
     times, lines = _frames(sim)
     sd = sim.tracker_fixes()
@@ -321,20 +321,20 @@ def _trail(ob: Observation, sim: FlightRecord, parts: _Parts):
         so = segment_of(ob.fix_t) == seg
         w = segment_of(sd_t) == seg
         sim_end = np.median(sd_xyz[w] if w.any() else sd_xyz, axis=0)
-        d = ob.fix_xyz[so] - sim_end
+        d = fixes[so] - sim_end
         drogue[so] = d
-        parts.add(np.median(d, axis=0), np.std(ob.fix_xyz[so], axis=0) / math.sqrt(max(so.sum(), 1)),
+        parts.add(np.median(d, axis=0), np.std(fixes[so], axis=0) / math.sqrt(max(so.sum(), 1)),
                   np.array(DROGUE), np.nan, float(np.median(ob.fix_t[so])), seg, "steady")
     return drogue, pd.concat(rows, ignore_index=True)
 
 
-def _drogue_bins(ob: Observation, sim: FlightRecord, delay_s: float, parts: _Parts):
+def _drogue_bins(ob: Observation, sim: FlightRecord, fixes: np.ndarray, delay_s: float, parts: _Parts):
     """The drogue residual at the fixes (a tracker latency `delay_s` means a fix
     stamped t shows the drogue at t - delay_s) and its `BIN_S` bin means."""
     sd = sim.tracker_fixes()
     ts, xyz = sd.index.to_numpy(float), sd[["x_m", "y_m", "z_m"]].to_numpy(float)
     tq = ob.fix_t - delay_s
-    d = ob.fix_xyz - np.column_stack([np.interp(tq, ts, xyz[:, c]) for c in range(3)])
+    d = fixes - np.column_stack([np.interp(tq, ts, xyz[:, c]) for c in range(3)])
     band = f"below {0.5 / BIN_S:g} Hz"
     for c, name in enumerate(DROGUE):
         mean, fl, mid = _bin_stats(ob.fix_t, d[:, c], ob.bins)
@@ -376,18 +376,21 @@ def _engagement_hose(ob: Observation, sim: FlightRecord, parts: _Parts) -> pd.Da
                          "vertical_m": np.nan, "inside": inside})
 
 
-def residual(log: FlightRecord | Observation, sim: FlightRecord, *, delay_s: float = 0.0) -> Residual:
+def residual(log: FlightRecord | Observation, sim: FlightRecord, *, delay_s: float = 0.0,
+             tracker_offset_m: float = 0.0) -> Residual:
     """Log minus `sim` (a record in the log contract), component by component;
     `log` may be its `observe`d form, measured once for many simulations.
     `delay_s`: the tracker's latency, applied to the log's fix times (doublet
-    and engagement drogue channels)."""
+    and engagement drogue channels). `tracker_offset_m`: how far aft (x) of the
+    simulated drogue point the tracked point lies, taken off the log's fixes."""
     ob = log if isinstance(log, Observation) else observe(log)
     parts = _Parts()
     hose = None
+    fixes = ob.fix_xyz - np.array([tracker_offset_m, 0.0, 0.0]) if tracker_offset_m else ob.fix_xyz
     if ob.kind == "trail":
-        d, hose = _trail(ob, sim, parts)
+        d, hose = _trail(ob, sim, fixes, parts)
     elif ob.kind in ("pitch_doublet", "engagement"):
-        d = _drogue_bins(ob, sim, delay_s, parts)
+        d = _drogue_bins(ob, sim, fixes, delay_s, parts)
         if ob.kind == "engagement":
             hose = _engagement_hose(ob, sim, parts)
     else:

@@ -118,6 +118,10 @@ class Effect:
     apply: Optional[Callable] = field(default=None, repr=False)
     comparison_only: bool = False
     not_calibrated: Optional[str] = None   # why no parameter has a search range
+    # a difference of definition between the model and the instruments, there in
+    # every log of the hardware (not an event of one flight): the diagnosis fits
+    # it like any effect and reports it as model form
+    model_form: bool = False
 
     @property
     def calibrated(self) -> list[str]:
@@ -495,10 +499,25 @@ _register(Effect(
                               search=(-0.8, 0.8), probe=0.15)},
     comparison_only=True))
 
+_register(Effect(
+    "drogue_reference", "Tracked point on the drogue",
+    model=("The optical tracker follows a point on the drogue `offset_m` aft (negative: forward) of "
+           "the model's drogue centre, its centre of mass between the hinge and the data sheet's "
+           "centre of pressure: the tracker's target (the canopy rim or the coupling) is not that "
+           "point. Along the drogue's axis, taken as the free stream (x): the hinge keeps the axis "
+           "within 22.5 deg of the hose end, cos 22.5 deg = 0.92. Applied to the comparison with "
+           "flight data (the logged fixes moved by -offset_m in x), not to the physics."),
+    source=("Flight-log contract SCHEMA.md (/ors/drogue: 'drogue centre', a point the contract does "
+            "not locate on the drogue); hardware.toml (the data sheet's hinge-to-centre-of-pressure "
+            "distance); issue 13 (the 0.2 m fore-aft drogue offset common to the KDC-10 logs)."),
+    params={"offset_m": Param("m", -0.2, -1.0, 1.0, "tracked point aft of the model's drogue centre", off=0.0,
+                              search=(-0.6, 0.6), probe=0.2)},
+    comparison_only=True, model_form=True))
+
 # the order effects compose in: properties, then winds, then the bow wave (it aims
 # at the drogue where every other effect has put it)
 ORDER = ("drogue_lift", "drogue_drag", "hose_drag", "hose_stiffness", "reel_lag",
-         "steady_wind", "tanker_wake", "turbulence", "gust", "bow_wave", "sensor_lag")
+         "steady_wind", "tanker_wake", "turbulence", "gust", "bow_wave", "sensor_lag", "drogue_reference")
 assert set(ORDER) == set(EFFECTS)
 
 

@@ -1,6 +1,6 @@
 """Comparison-side effects: corrections applied to flight data before it is held
-against a simulation, never to the physics. `sensor_lag` is the one so far
-(its parameters live in the registry, `solver.effects.EFFECTS`).
+against a simulation, never to the physics: `sensor_lag` and `drogue_reference`
+(their parameters live in the registry, `solver.effects.EFFECTS`).
 
 A tracker with latency `delay_s` stamps each fix `delay_s` after the moment it
 describes. The correction moves its time stamps back by `delay_s`; on a common
@@ -43,10 +43,24 @@ def with_tracker_delay(record, delay_s: float, topic: str = TRACKER_TOPIC):
     return dataclasses.replace(record, topics=topics)
 
 
+def with_tracker_offset(record, offset_m: float, topic: str = TRACKER_TOPIC):
+    """A copy of a flighttest.FlightRecord whose tracked drogue point is moved
+    `offset_m` forward in x: a tracker whose target lies `offset_m` aft of the
+    model's drogue centre, seen as the model's point."""
+    if offset_m == 0 or topic not in record.topics:
+        return record
+    df = record.topics[topic].copy()
+    df["x_m"] = df["x_m"] - float(offset_m)
+    return dataclasses.replace(record, topics=dict(record.topics, **{topic: df}))
+
+
 def apply_comparison_effects(record, effects: dict):
     """The flight record as the comparison should see it under the case's
     comparison-only effects ({name: {param: value}}, validated)."""
     lag = effects.get("sensor_lag")
     if lag:
         record = with_tracker_delay(record, lag["delay_s"])
+    ref = effects.get("drogue_reference")
+    if ref:
+        record = with_tracker_offset(record, ref["offset_m"])
     return record

@@ -37,6 +37,7 @@ TYPICAL = {
     "hose_stiffness": {"bending": 3.0},
     "reel_lag": {},
     "sensor_lag": {"delay_s": 0.1},
+    "drogue_reference": {"offset_m": -0.2},
 }
 
 
@@ -85,7 +86,8 @@ def effect_figures(out_dir: Path, case_path: Path = DEMO, duration: float = 12.0
         params = TYPICAL[name]
         e = EFFECTS[name]
         if e.comparison_only:
-            paths.append(_sensor_lag_figure(out_dir, base[1], params["delay_s"], plt))
+            figure = _sensor_lag_figure if name == "sensor_lag" else _drogue_reference_figure
+            paths.append(figure(out_dir, base[1], params, plt))
             summary["effects"][name] = {"params": params, "note": "comparison only: the physics is unchanged"}
             continue
         if name == "reel_lag":
@@ -184,8 +186,9 @@ def effects_markdown(summary: dict | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _sensor_lag_figure(out_dir: Path, res, delay: float, plt) -> Path:
+def _sensor_lag_figure(out_dir: Path, res, params: dict, plt) -> Path:
     from workbench.effects_compare import restamp
+    delay = params["delay_s"]
     fig, ax = plt.subplots(figsize=(7, 4))
     z = res.drogue_xyz[:, 2] - res.drogue_xyz[0, 2]
     ax.plot(res.t, z, "k-", label="drogue (simulated truth)")
@@ -198,6 +201,24 @@ def _sensor_lag_figure(out_dir: Path, res, delay: float, plt) -> Path:
     ax.legend(fontsize=8)
     fig.tight_layout()
     p = out_dir / "sensor_lag.png"
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    return p
+
+
+def _drogue_reference_figure(out_dir: Path, res, params: dict, plt) -> Path:
+    off = params["offset_m"]
+    fig, ax = plt.subplots(figsize=(7, 4))
+    x = res.drogue_xyz[:, 0]
+    ax.plot(res.t, x, "k-", label="model's drogue centre (simulated truth)")
+    ax.plot(res.t, x + off, "C0--", label=f"tracked point, {off:+g} m aft of it (as logged)")
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("drogue x aft of tow point (m)")
+    ax.set_xlim(0, min(8.0, float(res.t[-1])))
+    ax.set_title("drogue_reference acts on the comparison, not the physics")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    p = out_dir / "drogue_reference.png"
     fig.savefig(p, dpi=90)
     plt.close(fig)
     return p

@@ -195,3 +195,19 @@ def test_the_residual_s_shape_labels_and_floors_do_not_depend_on_the_simulation(
             # the one-pass variance E[y^2] - E[y]^2 keeps sqrt(eps) |y| ~ 1e-7 m of y ~ 10 m
             assert_allclose(R.floor, base.floor, atol=1e-6)
     assert math.isfinite(R.gap) and math.isfinite(R.noise_floor)
+
+
+@settings(max_examples=8, deadline=None)
+@given(kind=st.sampled_from(sorted(LOG_OF_KIND)), offset=st.floats(-0.6, 0.6, allow_nan=False))
+def test_a_tracked_point_aft_of_the_simulated_one_is_the_simulated_drogue_moved_aft(kind, offset):
+    """`tracker_offset_m` (the drogue_reference effect) takes the offset off the
+    log's fixes: the same residual, floors included, as a simulation whose
+    drogue lies `offset` further aft; against the log itself, -offset in x."""
+    rec = _log(kind)
+    ob = _observed(kind)
+    R = residual(ob, rec, tracker_offset_m=offset)
+    moved = residual(ob, _moved(rec, (offset, 0.0, 0.0)))
+    assert_allclose(R.r, moved.r, atol=EXACT)
+    assert_allclose(R.floor, moved.floor, atol=1e-6)   # the one-pass variance's rounding, as above
+    assert_allclose(R.r[R.channel == "drogue x"], -offset, atol=EXACT)
+    assert_allclose(R.r[R.channel != "drogue x"], 0.0, atol=EXACT)

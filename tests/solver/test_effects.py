@@ -108,6 +108,7 @@ def test_no_effects_leave_the_model_alone_and_defaults_fill_in():
     assert validate_effects({"tanker_wake": {}})["tanker_wake"]["strength"] == 1.0
     # comparison-only effects do not touch the physics
     assert apply_effects(m, {"sensor_lag": {"delay_s": 0.2}}, context(m)) is m
+    assert apply_effects(m, {"drogue_reference": {"offset_m": 0.3}}, context(m)) is m
 
 
 # ---- tanker wake: vortex filaments ------------------------------------------------------
@@ -598,3 +599,4 @@ def test_reel_lag_stays_stable_on_the_stiff_hose():
     assert np.all(np.isfinite(lag.reel_length))
     k = np.searchsorted(lag.t, 0.7)
     assert ideal.reel_length[k] < lag.reel_length[k] - 0.005 < s0.reel_length
+

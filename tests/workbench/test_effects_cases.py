@@ -137,3 +137,17 @@ def test_sensor_lag_shifts_the_tracker_channel():
     assert np.allclose(r2.topics["/ors/drogue"].index.to_numpy(), t - delay)
     assert r2.topics["/tanker/tow_point"] is tow
     assert with_tracker_delay(rec, 0.0) is rec
+
+
+def test_the_tracked_drogue_point_corrects_the_log_not_the_model():
+    """drogue_reference: a tracker whose target lies offset_m aft of the model's
+    drogue centre; the comparison moves the logged fixes forward by it (and the
+    residual takes it off the fixes the same way, tests/flighttest/test_residual.py)."""
+    from flighttest import read_record
+    from solver.effects import validate_effects
+    rec = read_record(Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight" / "PD-G3-1.mcap")
+    out = apply_comparison_effects(rec, validate_effects({"drogue_reference": {"offset_m": -0.2}}))
+    a, b = rec.topic("/ors/drogue"), out.topic("/ors/drogue")
+    np.testing.assert_allclose((b["x_m"] - a["x_m"]).dropna(), 0.2, atol=1e-12)
+    np.testing.assert_array_equal(b[["y_m", "z_m"]].to_numpy(), a[["y_m", "z_m"]].to_numpy())
+    assert out.topic("/tanker/tow_point") is rec.topic("/tanker/tow_point")

@@ -74,8 +74,10 @@ def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
     Raises `SimulationFailed` when the simulation fails."""
     phys = {k: v for k, v in effects.items() if not EFFECTS[k].comparison_only}
     delay = float(effects.get("sensor_lag", {}).get("delay_s", 0.0))
+    offset = float(effects.get("drogue_reference", {}).get("offset_m", 0.0))
     try:
-        return residual(observed(path), _simulate_frozen(path, _freeze(phys), setup), delay_s=delay)
+        return residual(observed(path), _simulate_frozen(path, _freeze(phys), setup), delay_s=delay,
+                        tracker_offset_m=offset)
     except InputError:
         raise
     except SIM_FAILURES as exc:
