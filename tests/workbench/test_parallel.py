@@ -100,3 +100,20 @@ def test_an_unreachable_scheduler_is_bad_input(tmp_path):
                                        "--scheduler", "tcp://127.0.0.1:1"])
     assert res.exit_code == 2, res.output
     assert "--scheduler tcp://127.0.0.1:1: cannot reach the Dask scheduler" in res.output
+
+
+@pytest.mark.slow
+def test_the_proving_ground_runs_its_logs_on_a_dask_cluster(cluster, tmp_path):
+    """`diagnose --selftest --scheduler` (issue 13, item 7): the proving ground's
+    logs generated and diagnosed on the cluster give the rows local processes
+    give (same seed, same logs, same diagnosis)."""
+    rows = {}
+    for name, extra in (("local", ["--workers", "1"]), ("dask", ["--scheduler", cluster.scheduler_address])):
+        out = tmp_path / name
+        res = CliRunner().invoke(cli, ["diagnose", "--selftest", "--proving-ground", "independent", "--n", "1",
+                                       "--seed", "5", "--out", str(out), "--no-progress", *extra])
+        assert res.exit_code == 0, res.output
+        rows[name] = json.loads((out / "proving-single.json").read_text())["rows"]
+    keys = ("kind", "truth", "top", "ranking", "gap_before", "gap_after_heldout")
+    assert [{k: r[k] for k in keys} for r in rows["dask"]] == [{k: r[k] for k in keys} for r in rows["local"]]
+    assert "run_one" in cluster.scheduler.task_prefixes   # it ran there

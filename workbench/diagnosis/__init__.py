@@ -16,6 +16,8 @@ Modules by concern, data flowing down the list:
   residual they span.
 * `rank`: one family's diagnosis and the `diagnose` of many logs.
 * `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
+* `remainder`: what no library effect explains, per channel and station;
+  model form when it is the same in every log.
 * `findings`: the diagnosis in words.
 * `report`: the reporters (diagnosis.json / .html, selftest.json, the section
   of validate's report); compute never writes files.
