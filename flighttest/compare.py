@@ -98,6 +98,9 @@ def compare_trail(log: FlightRecord, sim: FlightRecord, a_log: dict, a_sim: dict
     _side_by_side(out, a_log, a_sim, ["drogue_steady_x_m", "drogue_steady_y_m", "drogue_steady_z_m"])
     for c in "xyz":
         out[f"drogue_steady_{c}_error_m"] = _diff(a_sim[f"drogue_steady_{c}_m"], a_log[f"drogue_steady_{c}_m"])
+    # across the stream, lateral and vertical together: where a receiver's probe must aim
+    dy, dz = out["drogue_steady_y_error_m"], out["drogue_steady_z_error_m"]
+    out["drogue_steady_cross_error_m"] = None if dy is None or dz is None else math.hypot(dy, dz)
     h = R.hose
     e = h["normal_m"].to_numpy(float)
     out["trail_shape_rms_error_m"] = rms(e)

@@ -30,7 +30,7 @@ METRICS: dict[str, frozenset[str]] = {
     "trail": frozenset(
         [f"drogue_steady_{c}_m{s}" for c in "xyz" for s in _SIDE]
         + [f"drogue_steady_{c}_error_m" for c in "xyz"]
-        + ["trail_shape_rms_error_m", "trail_shape_max_error_m", "trail_vertical_rms_error_m"]),
+        + ["drogue_steady_cross_error_m", "trail_shape_rms_error_m", "trail_shape_max_error_m", "trail_vertical_rms_error_m"]),
     "engagement": frozenset(
         [f"{k}{s}" for k in ("wave_speed_mps", "reel_delay_s") for s in _SIDE]
         + ["wave_speed_error_pct", "shape_rms_error_engaged_m", "shape_rms_error_pre_contact_m"]

@@ -211,3 +211,12 @@ def test_a_tracked_point_aft_of_the_simulated_one_is_the_simulated_drogue_moved_
     assert_allclose(R.floor, moved.floor, atol=1e-6)   # the one-pass variance's rounding, as above
     assert_allclose(R.r[R.channel == "drogue x"], -offset, atol=EXACT)
     assert_allclose(R.r[R.channel != "drogue x"], 0.0, atol=EXACT)
+
+
+def test_the_trail_cross_stream_error_is_lateral_and_vertical_together():
+    """3-4-5: the simulated drogue 0.3 m to starboard and 0.4 m up is 0.5 m off
+    across the stream; its fore-aft offset does not count."""
+    rec = _log("trail")
+    m = compare(rec, _moved(rec, (0.7, 0.3, 0.4))).metrics
+    assert_allclose([m["drogue_steady_y_error_m"], m["drogue_steady_z_error_m"]], [0.3, 0.4], atol=1e-9)
+    assert_allclose(m["drogue_steady_cross_error_m"], 0.5, atol=1e-9)
