@@ -86,8 +86,7 @@ def effect_figures(out_dir: Path, case_path: Path = DEMO, duration: float = 12.0
         params = TYPICAL[name]
         e = EFFECTS[name]
         if e.comparison_only:
-            figure = _sensor_lag_figure if name == "sensor_lag" else _drogue_reference_figure
-            paths.append(figure(out_dir, base[1], params, plt))
+            paths.append(_comparison_figure(out_dir, name, base[1], params, plt))
             summary["effects"][name] = {"params": params, "note": "comparison only: the physics is unchanged"}
             continue
         if name == "reel_lag":
@@ -186,39 +185,36 @@ def effects_markdown(summary: dict | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _sensor_lag_figure(out_dir: Path, res, params: dict, plt) -> Path:
-    from workbench.effects_compare import restamp
-    delay = params["delay_s"]
-    fig, ax = plt.subplots(figsize=(7, 4))
-    z = res.drogue_xyz[:, 2] - res.drogue_xyz[0, 2]
-    ax.plot(res.t, z, "k-", label="drogue (simulated truth)")
-    ax.plot(res.t + delay, z, "C0--", label=f"tracker with {delay:g} s latency, as stamped")
-    ax.plot(restamp(res.t + delay, delay), z, "C3:", lw=2, label="tracker, stamps corrected (sensor_lag)")
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("drogue z from steady (m)")
-    ax.set_xlim(0, min(8.0, float(res.t[-1])))
-    ax.set_title("sensor_lag acts on the comparison, not the physics")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    p = out_dir / "sensor_lag.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    return p
-
-
-def _drogue_reference_figure(out_dir: Path, res, params: dict, plt) -> Path:
+def _comparison_lines(name: str, res, params: dict) -> tuple[str, list]:
+    """A comparison-only effect's picture: the y label and (t, y, style, label)
+    lines of the simulated truth and of what the instrument logs of it."""
+    if name == "sensor_lag":
+        from workbench.effects_compare import restamp
+        delay = params["delay_s"]
+        z = res.drogue_xyz[:, 2] - res.drogue_xyz[0, 2]
+        return "drogue z from steady (m)", [
+            (res.t, z, "k-", "drogue (simulated truth)"),
+            (res.t + delay, z, "C0--", f"tracker with {delay:g} s latency, as stamped"),
+            (restamp(res.t + delay, delay), z, "C3:", "tracker, stamps corrected (sensor_lag)")]
     off = params["offset_m"]
-    fig, ax = plt.subplots(figsize=(7, 4))
     x = res.drogue_xyz[:, 0]
-    ax.plot(res.t, x, "k-", label="model's drogue centre (simulated truth)")
-    ax.plot(res.t, x + off, "C0--", label=f"tracked point, {off:+g} m aft of it (as logged)")
+    return "drogue x aft of tow point (m)", [
+        (res.t, x, "k-", "model's drogue centre (simulated truth)"),
+        (res.t, x + off, "C0--", f"tracked point, {off:+g} m aft of it (as logged)")]
+
+
+def _comparison_figure(out_dir: Path, name: str, res, params: dict, plt) -> Path:
+    ylabel, lines = _comparison_lines(name, res, params)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for t, y, style, label in lines:
+        ax.plot(t, y, style, label=label, lw=2 if style.endswith(":") else 1.5)
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("drogue x aft of tow point (m)")
+    ax.set_ylabel(ylabel)
     ax.set_xlim(0, min(8.0, float(res.t[-1])))
-    ax.set_title("drogue_reference acts on the comparison, not the physics")
+    ax.set_title(f"{name} acts on the comparison, not the physics")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    p = out_dir / "drogue_reference.png"
+    p = out_dir / f"{name}.png"
     fig.savefig(p, dpi=90)
     plt.close(fig)
     return p
