@@ -40,7 +40,7 @@ from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
-from workbench.diagnosis.select import forward_select
+from workbench.diagnosis.select import Selection, forward_select
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
                                        SCREEN_KEEP, Setup, applicable, calibrated_params, family_of, to_unit)
 from workbench.diagnosis.where import where_map
@@ -104,6 +104,24 @@ def probabilities(gaps, n_params, floor: float, n: int) -> list[float]:
     return (w / w.sum()).tolist()
 
 
+def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: int) -> list:
+    """The ranking of what forward selection fitted: the selected set first,
+    then the other candidates by score (held-out gap x (1 + `PARAM_PENALTY`
+    per parameter)), `none` last; `none` first when no set was selected. Then
+    implausible fits move behind similar plausible ones (`plausible_first`),
+    and each candidate gets its probability over the `n_heldout` held-out
+    residual components (`probabilities`)."""
+    for c in sel.fitted:
+        c.score = c.gap_after_heldout * (1 + PARAM_PENALTY * c.n_params)
+    others = sorted((c for c in sel.fitted if c is not sel.chosen), key=lambda c: c.score)
+    ranking = [none] + others if sel.chosen is None else [sel.chosen] + others + [none]
+    ranking = plausible_first(ranking, floor)
+    for c, w in zip(ranking, probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking],
+                                           floor, n_heldout)):
+        c.probability = w
+    return ranking
+
+
 def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable | None = None,
                     progress: Callable[[str], None] | None = None) -> FamilyDiagnosis:
     """The where-map, ranking and gaps of one family of logs."""
@@ -145,9 +163,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         c.gap_before = gap_before_heldout if len(paths) == 1 else gap_before
         c.gap_before_train = gap_before_train
         c.shrink_heldout = 1.0 - c.gap_after_heldout / gap_before_heldout if gap_before_heldout else None
-        c.score = c.gap_after_heldout * (1 + PARAM_PENALTY * c.n_params)
         c.screen_share = {e: scores.get(e) for e in c.effects}
-    others = sorted((c for c in sel.fitted if c is not sel.chosen), key=lambda c: c.score)
     none = Candidate("none", [], 0, gap_before=gap_before_heldout if len(paths) == 1 else gap_before,
                      gap_after_train=gap_before_train, gap_after_heldout=gap_before_heldout, shrink_heldout=0.0,
                      score=gap_before_heldout)
@@ -155,14 +171,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     if sel.chosen is None:
         none.why = ("the baseline explains the logs to within their noise" if within_noise else
                     f"no effect earns its place: {sel.stopped}")
-        ranking = [none] + others
-    else:
-        ranking = [sel.chosen] + others + [none]
-    ranking = plausible_first(ranking, floor)
-    n_heldout = sum(len(base[p].r) for p in paths)
-    for c, w in zip(ranking, probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking],
-                                           floor, n_heldout)):
-        c.probability = w
+    ranking = rank_selection(sel, none, floor, sum(len(base[p].r) for p in paths))
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation is in (its parameters fitted
     # on all logs): what is left for the next effect to explain
