@@ -155,6 +155,18 @@ def test_an_addition_below_its_parameter_penalty_is_refused():
     assert sel.chosen.effects == ["drogue_lift", "hose_drag"]
 
 
+def test_an_effect_whose_fit_fails_leaves_the_pool():
+    score = _scorer({"drogue_lift": 1.0, "tanker_wake": 0.5}, floor=0.01)
+
+    def failing(job):
+        if "drogue_drag" in job[1]:
+            return Candidate("+".join(job[1]), list(job[1]), 1, success=False, message="diverged")
+        return score(job)
+    sel = SEL.forward_select(["L1"], POOL, Setup(), _serial, 1.2, 0.01, score=failing)
+    assert [c.effect for c in sel.failed] == ["drogue_drag"]
+    assert all("drogue_drag" not in c.effects for c in sel.fitted)
+
+
 def test_forward_selection_stops_at_max_effects():
     sel, _ = _select({e: 1.0 / (i + 1) for i, e in enumerate(POOL)}, floor=0.001)
     assert len(sel.chosen.effects) == MAX_EFFECTS == len(sel.steps)

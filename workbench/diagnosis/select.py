@@ -1,8 +1,8 @@
 """Forward selection of several effects at once: from the baseline, add the
 screened effect that most cuts the held-out gap, one step at a time.
 
-Step k fits every screened effect not yet selected together with the k - 1
-selected ones (`score_candidate`: per fold and on all logs, warm-started at the
+Step k fits every screened effect not yet selected (nor failed to simulate)
+together with the k - 1 selected ones (`score_candidate`: per fold and on all logs, warm-started at the
 selected set's fitted values, `fit.EffectCalibrator.fit(parts, start=...)`)
 and scores it held out on the same folds. The best addition is accepted when
 its held-out gain over the current set (current gap minus its gap, m) beats
@@ -112,11 +112,12 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
                    score: Callable = score_candidate, say: Callable[[str], None] = lambda s: None) -> Selection:
     """Forward selection over `pool` (effect names) from the baseline, whose
     held-out gap is `gap_before` (m), against the noise floor `floor` (m)."""
-    chosen, current, fitted, failed, steps = None, gap_before, [], [], []
+    chosen, current, fitted, failed, steps, dropped = None, gap_before, [], [], [], set()
     stopped = f"{MAX_EFFECTS} effects selected (the most forward selection adds)"
     for k in range(1, MAX_EFFECTS + 1):
         selected = tuple(chosen.effects) if chosen else ()
-        rest = [e for e in pool if e not in selected]
+        # an effect whose fit failed to simulate is out of the pool: it failed
+        rest = [e for e in pool if e not in selected and e not in dropped]
         if not rest:
             stopped = "every screened effect is selected"
             break
@@ -125,6 +126,7 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         say(f"step {k}: " + ", ".join("+".join(j[1]) for j in jobs))
         out = list(mapper(score, jobs, progress=lambda c: say(f"fitted {c.effect}")))
         failed += [c for c in out if not c.success]
+        dropped |= {next(e for e in c.effects if e not in selected) for c in out if not c.success}
         ok = [c for c in out if c.success]
         for c in ok:
             c.step = k
