@@ -222,3 +222,28 @@ def test_a_warm_start_on_a_real_trail_ends_where_the_cold_fit_did():
     assert abs(warm.params_["drogue_lift"]["scale"] - cold.params_["drogue_lift"]["scale"]) \
         <= warm.stderr_["drogue_lift"]["scale"]
     assert warm.gap_train_ <= cold.gap_train_ * (1 + 1e-6)      # no worse than where it started
+
+
+# ---------------------------------------------------------------- reported
+
+def test_the_selection_and_its_shares_are_in_the_json_the_findings_and_the_report_table():
+    from workbench.diagnosis.findings import findings
+    from workbench.diagnosis.report import _selection_blocks
+    from workbench.diagnosis.result import FamilyDiagnosis
+    sel, g0 = _select({"drogue_lift": 1.0, "tanker_wake": 0.5}, floor=0.01)
+    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200)
+    for c in ranking:
+        c.gap_before, c.shrink_heldout = g0, 1.0 - c.gap_after_heldout / g0
+    d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["L1"], n_elements=20,
+                        gap_definition="", gap_before=g0, noise_floor=0.01, gap_real=True, held_out_scheme="",
+                        screen={}, screened_out=[], not_applicable={}, ranking=ranking, failed=[],
+                        remaining_unexplained={"gap_m": ranking[0].gap_after_heldout, "above_noise_m": 0.0},
+                        gap={}, gap_after_best={}, wall_s=1.0, selection=sel.to_json())
+    js = d.to_json()
+    assert js["ranking"][0]["shares"] == sel.chosen.shares and js["selection"]["effects"] == sel.chosen.effects
+    text = "\n".join(findings(d))
+    share = 100 * sel.chosen.shares["drogue_lift"]
+    assert f"Forward selection added drogue_lift ({share:.0f} % of the gap" in text and "stopped because" in text
+    table, para = _selection_blocks(js)
+    assert [r[6].text for r in table.rows] == ["accepted", "accepted", "refused"]
+    assert "tanker_wake + drogue_lift" in para.text
