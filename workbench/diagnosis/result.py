@@ -1,6 +1,7 @@
-"""The diagnosis's typed results: a ranked `Candidate` per effect or set of effects, a
-`FamilyDiagnosis` per family of logs and the `Diagnosis` of them all, each
-with `to_json()` (the diagnosis.json layout) and the ranking `.to_pandas()`."""
+"""The diagnosis's typed results: a ranked `Candidate` per effect or set of
+effects, a `FamilyDiagnosis` per family of logs and the `Diagnosis` of them
+all, each with `to_json()` (the diagnosis.json layout) and the ranking
+`.to_pandas()`."""
 from __future__ import annotations
 
 import dataclasses
@@ -17,8 +18,9 @@ class Candidate:
     number of effects. `step` is the forward-selection step it was fitted at
     (its number of effects); a set forward selection accepted has `shares`,
     {effect: the held-out gap cut at the step the effect entered, over the
-    baseline's held-out gap}, adding up to its `shrink_heldout`. A failed candidate (`success` False) has `message`
-    saying which simulation failed and why, and no gaps: it is never ranked."""
+    baseline's held-out gap}, adding up to its `shrink_heldout`. A failed
+    candidate (`success` False) has `message` saying which simulation failed
+    and why, and no gaps: it is never ranked."""
 
     effect: str
     effects: list
