@@ -216,7 +216,7 @@ def test_diagnosis_plot_has_a_panel_per_family():
                    Candidate("none", [], 0, gap_after_heldout=1.6)]
         fams[name] = FamilyDiagnosis(name, name.split("/")[0], [], 20, "", 1.6, 0.01, True, "", {}, [], {},
                                      ranking, [], {}, {}, {}, 1.0)
-    diag = Diagnosis([], fams, [], "local", {}, 2.0, 0.05, 0.25)
+    diag = Diagnosis([], fams, [], "local", {}, 2.0, 0.05, 4)
     fig = diag.plot()
     assert isinstance(fig, Figure) and len(fig.axes) == 2
     assert diag.to_pandas().shape[0] == 4

@@ -14,6 +14,8 @@ Modules by concern, data flowing down the list:
   `TimeBlocks`).
 * `screen`: each effect's sensitivity directions and the share of the
   residual they span.
+* `select`: forward selection of several effects at once (warm-started
+  fits, the acceptance rule, each selected effect's share of the gap).
 * `rank`: one family's diagnosis and the `diagnose` of many logs.
 * `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
 * `remainder`: what no library effect explains, per channel and station;

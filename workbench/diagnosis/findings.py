@@ -36,6 +36,19 @@ def _plausibility(d: FamilyDiagnosis) -> list[str]:
     return out
 
 
+def _selection(d: FamilyDiagnosis) -> list[str]:
+    """The forward selection in a sentence: each selected effect with its
+    share of the gap, in the order they entered, and why it stopped."""
+    sel = d.selection
+    if not sel or not sel.get("effects"):
+        return []
+    steps = [s for s in sel["steps"] if s["accepted"]]
+    return ["Forward selection added " + ", then ".join(f"{s['added']} ({100 * s['share']:.0f} % of the gap, "
+                                                         f"held-out gap {s['gap_heldout_before_m']:.3f} -> "
+                                                         f"{s['gap_heldout_after_m']:.3f} m)" for s in steps)
+            + f"; it stopped because {sel['stopped']}."]
+
+
 def findings(d: FamilyDiagnosis) -> list[str]:
     """Plain sentences from a family's numbers: what was found, how sure, what is left."""
     top = d.ranking[0]
@@ -53,6 +66,7 @@ def findings(d: FamilyDiagnosis) -> list[str]:
                f"{top.gap_after_heldout:.3f} m ({100 * top.shrink_heldout:.0f} % smaller), "
                f"{d.remaining_unexplained['above_noise_m']:.3f} m of it above the noise floor"
                + _probability(top) + ".")
+    out += _selection(d)
     out += _plausibility(d)
     likeliest = max(d.ranking, key=lambda c: -1.0 if c.probability is None else c.probability)
     if likeliest is not top and likeliest.probability is not None:

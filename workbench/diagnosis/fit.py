@@ -6,7 +6,11 @@ parameters (those with a search range in the effect registry) on `parts`: a
 grid in the unit cube of the search ranges (10 points for one parameter,
 5 x 5 for two, 4 per axis beyond, plus the off point), then bounded least
 squares from the best grid point, and for two or more parameters from the
-runner-up too. `score(parts)` is the held-out gap at the fitted parameters.
+runner-up too. `fit(parts, start={effect: {param: value}})` warm-starts it
+(forward selection adding an effect to a fitted set): the parameters given
+stay at their start values on the grid, which spans only the others, and the
+least squares then polishes all of them together. `score(parts)` is the
+held-out gap at the fitted parameters.
 A part is a log path, or (path, segment) for one of its alternate time
 blocks; `LeaveOneLogOut` and `TimeBlocks` split a family into folds of parts.
 
@@ -42,7 +46,8 @@ def effects_at(candidate: tuple, x) -> dict:
     return out
 
 
-def _ordered(effects) -> tuple:
+def ordered(effects) -> tuple:
+    """`effects` in the registry's order: a candidate's one spelling."""
     return tuple(sorted(effects, key=list(EFFECTS).index))
 
 
@@ -61,7 +66,7 @@ class EffectCalibrator:
 
     @property
     def candidate(self) -> tuple:
-        return _ordered(self.effects)
+        return ordered(self.effects)
 
     def _residual(self, parts, effects: dict) -> np.ndarray:
         out = []
@@ -71,29 +76,40 @@ class EffectCalibrator:
             out.append(R.r if seg is None else R.r[R.segment == seg])
         return np.concatenate(out)
 
-    def fit(self, parts: Sequence[Part]) -> "EffectCalibrator":
+    def fit(self, parts: Sequence[Part], start: dict | None = None) -> "EffectCalibrator":
+        """Fit on `parts`; `start` ({effect: {param: value}}) holds parameters
+        already fitted (warm start): they are not gridded, only polished."""
         candidate = self.candidate
-        ps = [p for _, _, p in calibrated_params(candidate)]
+        cal = calibrated_params(candidate)
+        ps = [p for _, _, p in cal]
         n = len(ps)
+        start = start or {}
+        u_start = np.array([to_unit(p, start[e][k]) if k in start.get(e, {}) else np.nan for e, k, p in cal])
+        free = np.flatnonzero(np.isnan(u_start))
 
         def res(u):
             return self._residual(parts, effects_at(candidate, [from_unit(p, ui) for p, ui in zip(ps, u)]))
         # a dense first grid: the engagement's objective is rough in its parameters
-        # (slack-hose dynamics), so the local polish only refines what the grid found
-        grid_1d = np.linspace(0.0, 1.0, {1: 10, 2: 5}.get(n, 4))
-        if n == 1:
-            starts = [np.array([g]) for g in grid_1d]
-        else:
-            starts = [np.array(u) for u in np.stack(np.meshgrid(*[grid_1d] * n), -1).reshape(-1, n)]
-        starts.append(np.array([to_unit(p, p.off) for p in ps]))
+        # (slack-hose dynamics), so the local polish only refines what the grid found;
+        # it spans the free parameters only (a full grid over four to six is not
+        # affordable), the started ones held at their start values
+        grid_1d = np.linspace(0.0, 1.0, {1: 10, 2: 5}.get(len(free), 4))
+        free_points = np.stack(np.meshgrid(*[grid_1d] * len(free)), -1).reshape(-1, len(free)) if len(free) \
+            else np.empty((1, 0))
+        free_points = np.vstack([free_points, [[to_unit(ps[i], ps[i].off) for i in free]]])
+        starts = []
+        for fp in free_points:
+            u0 = u_start.copy()
+            u0[free] = fp
+            starts.append(u0)
         scored = sorted((gap(res(u)), i) for i, u in enumerate(starts))
-        # refine from the best grid point, and for two or more parameters from the
-        # runner-up too (a valley across the grid); starts are nudged off the bounds,
-        # where a projected gradient can vanish at a corner that is not a minimum
+        # refine from the best grid point, and for two or more free parameters from
+        # the runner-up too (a valley across the grid); starts are nudged off the
+        # bounds, where a projected gradient can vanish at a corner that is not a minimum
         best_gap, u, sol = scored[0][0], starts[scored[0][1]], None
-        for _, i in scored[:1 if n == 1 else 2]:
+        for _, i in scored[:1 if len(free) <= 1 else 2]:
             s = least_squares(res, np.clip(starts[i], 0.02, 0.98), bounds=(np.zeros(n), np.ones(n)),
-                              diff_step=0.02, max_nfev=8 * n + 4, x_scale=np.full(n, 0.1))
+                              diff_step=0.02, max_nfev=8 * max(len(free), 1) + 4, x_scale=np.full(n, 0.1))
             if sol is None or gap(s.fun) < gap(sol.fun):
                 sol = s
         if gap(sol.fun) <= best_gap:

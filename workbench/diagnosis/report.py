@@ -88,6 +88,29 @@ def _params_text(c) -> str:
     return "<br/>".join(f"{esc(e)}.{esc(k)} = {v:.3g} ± {s[e][k]:.2g}" for e, d in p.items() for k, v in d.items())
 
 
+def _shares_text(c) -> str:
+    """A selected set's shares of the gap, as inline text after its name."""
+    if not c.get("shares"):
+        return ""
+    return " (shares of the gap: " + ", ".join(f"{esc(e)} {100 * v:.0f} %" for e, v in c["shares"].items()) + ")"
+
+
+def _selection_blocks(d: dict) -> list:
+    """The forward selection: each step's best addition, its gain against the
+    gap it started from, the verdict and the share; and why it stopped. A
+    diagnosis.json written before forward selection has none."""
+    sel = d.get("selection")
+    if not sel:
+        return []
+    rows = [[s["step"], Cell(esc(s["added"])), s["gap_heldout_before_m"], s["gap_heldout_after_m"], s["gain_m"],
+             s["new_params"], Cell("accepted" if s["accepted"] else "refused"),
+             None if s["share"] is None else 100 * s["share"]] for s in sel["steps"]]
+    return [Table(["step", "best addition", "held-out gap before (m)", "after (m)", "gain (m)", "new parameters",
+                   "verdict", "share of the gap (%)"], rows, [6, 22, 14, 12, 12, 10, 10, 14],
+                  title="Forward selection"),
+            Para(f"Selected: {esc(' + '.join(sel['effects']) or 'none')}; stopped: {esc(sel['stopped'])}.")]
+
+
 def _heat(ax, values, rows, cols, title, annotate, vmax=None):
     """A heat map of gap / noise floor (log colour scale up to `vmax`, default
     the largest value), each cell annotated."""
@@ -337,10 +360,13 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
     """The diagnosis as report blocks (a level-1 heading first), from the
     diagnosis.json content (`Diagnosis.to_json()`, or the file read back)."""
     out = [Heading(1, esc(title), "diagnosis"),
-           Para(f"Gap per family (m, defined per family), before and after each candidate effect, calibrated on "
-                f"training data and scored held out; ranked by held-out gap × (1 + {PARAM_PENALTY:g} per "
-                f"parameter). A gap under {NOISE_FACTOR:g}× its noise floor is noise. Scheduler: "
-                f"{esc(diag.get('scheduler'))}.")]
+           Para(f"Gap per family (m, defined per family), before and after each candidate explanation, "
+                f"calibrated on training data and scored held out. Forward selection adds, one at a time and up "
+                f"to {diag.get('max_effects', '?')}, the effect that most cuts the held-out gap while its gain "
+                f"beats {NOISE_FACTOR:g}× the noise floor and {PARAM_PENALTY:g} × its new parameters × the gap "
+                f"left; the selected set ranks first, then the other candidates fitted on the way by held-out "
+                f"gap × (1 + {PARAM_PENALTY:g} per parameter). A gap under {NOISE_FACTOR:g}× its noise floor is "
+                f"noise. Scheduler: {esc(diag.get('scheduler'))}.")]
     for name, d in diag["families"].items():
         prob = any("probability" in c for c in d["ranking"])
         out += [Heading(2, esc(name), f"diagnosis-{anchor(name)}"),
@@ -348,7 +374,9 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                      f"{fmt(d['gap_before'])} m against a noise floor of {fmt(d['noise_floor'])} m "
                      f"({'real' if d['gap_real'] else 'within noise'}); held out by {esc(d['held_out_scheme'])}; "
                      f"{d['n_elements']} elements; {d['wall_s']:.0f} s.")]
-        rows = [[i + 1, Cell(esc(c["effect"]) + (f" (implausible: {esc(c['implausible'])})" if c.get("implausible") else "")), Cell(_params_text(c), "small"), c["gap_before"],
+        rows = [[i + 1, Cell(esc(c["effect"]) + _shares_text(c)
+                             + (f" (implausible: {esc(c['implausible'])})" if c.get("implausible") else "")),
+                 Cell(_params_text(c), "small"), c["gap_before"],
                  c["gap_after_train"], c["gap_after_heldout"],
                  None if c.get("shrink_heldout") is None else 100 * c["shrink_heldout"]]
                 + ([c.get("probability")] if prob else []) for i, c in enumerate(d["ranking"])]
@@ -357,6 +385,7 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                          rows, [4, 20, 30, 10, 10, 10, 10] + ([8] if prob else []), title="Ranking",
                          row_class="ranking-row"))
         out.append(_ranking_figure(name, d))
+        out += _selection_blocks(d)
         if d.get("failed"):
             out.append(Para("Failed, not ranked: " + "; ".join(f"{esc(c['effect'])} ({esc(c['message'])})"
                                                              for c in d["failed"]) + "."))

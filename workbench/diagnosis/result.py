@@ -1,6 +1,7 @@
-"""The diagnosis's typed results: a ranked `Candidate` per effect or pair, a
-`FamilyDiagnosis` per family of logs and the `Diagnosis` of them all, each
-with `to_json()` (the diagnosis.json layout) and the ranking `.to_pandas()`."""
+"""The diagnosis's typed results: a ranked `Candidate` per effect or set of
+effects, a `FamilyDiagnosis` per family of logs and the `Diagnosis` of them
+all, each with `to_json()` (the diagnosis.json layout) and the ranking
+`.to_pandas()`."""
 from __future__ import annotations
 
 import dataclasses
@@ -11,11 +12,15 @@ import pandas as pd
 
 @dataclasses.dataclass
 class Candidate:
-    """One explanation (an effect, a pair of effects, or "none") and its gaps, m.
+    """One explanation (an effect, a set of effects, or "none") and its gaps, m.
 
     `params` and `param_stderr` are {effect: {param: value}} whatever the
-    number of effects. A failed candidate (`success` False) has `message`
-    saying which simulation failed and why, and no gaps: it is never ranked."""
+    number of effects. `step` is the forward-selection step it was fitted at
+    (its number of effects); a set forward selection accepted has `shares`,
+    {effect: the held-out gap cut at the step the effect entered, over the
+    baseline's held-out gap}, adding up to its `shrink_heldout`. A failed
+    candidate (`success` False) has `message` saying which simulation failed
+    and why, and no gaps: it is never ranked."""
 
     effect: str
     effects: list
@@ -36,6 +41,8 @@ class Candidate:
     wall_s: Optional[float] = None
     probability: Optional[float] = None   # from held-out evidence, over the family's ranked candidates
     implausible: Optional[str] = None     # a fitted value on a search bound or outside its physical range
+    step: Optional[int] = None
+    shares: Optional[dict] = None
     success: bool = True
     message: str = ""
 
@@ -56,7 +63,7 @@ class Candidate:
             out.update({"gap_before_train": self.gap_before_train,
                         "gap_after_all_fit_per_log": self.gap_after_all_fit_per_log, "folds": self.folds,
                         "screen_share": self.screen_share, "wall_s": self.wall_s})
-        for k in ("why_not_first", "why", "implausible"):
+        for k in ("why_not_first", "why", "implausible", "step", "shares"):
             if getattr(self, k) is not None:
                 out[k] = getattr(self, k)
         return out
@@ -76,7 +83,10 @@ def _ranking_frame(ranking: list, **extra) -> pd.DataFrame:
 
 @dataclasses.dataclass
 class FamilyDiagnosis:
-    """The where-map, screen, ranking and gaps (m) of one family of logs."""
+    """The where-map, screen, forward selection, ranking and gaps (m) of one
+    family of logs. `selection` is `select.Selection.to_json()`: the selected
+    effects and their shares, each step's best addition, gain and verdict,
+    and why the selection stopped."""
 
     family: str
     kind: str
@@ -96,6 +106,7 @@ class FamilyDiagnosis:
     gap: dict                     # where-map per log, baseline
     gap_after_best: dict          # where-map per log with the best explanation
     wall_s: float
+    selection: dict = dataclasses.field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -128,7 +139,7 @@ class Diagnosis:
     gap_definition: dict
     noise_factor: float
     param_penalty: float
-    pair_gain: float
+    max_effects: int
 
     @property
     def ranking(self) -> list:
@@ -165,5 +176,5 @@ class Diagnosis:
             ranking = [{"family": k, **d["ranking"][0]} for k, d in fams.items()]
         return {"logs": self.logs, "families": fams, "gap": gap, "ranking": ranking,
                 "gap_definition": self.gap_definition, "noise_factor": self.noise_factor,
-                "param_penalty": self.param_penalty, "pair_gain": self.pair_gain,
+                "param_penalty": self.param_penalty, "max_effects": self.max_effects,
                 "scheduler": self.scheduler, "findings": self.findings}

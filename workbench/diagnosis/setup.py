@@ -26,11 +26,9 @@ DIAG_KINDS = ("pitch_doublet", "trail", "engagement")
 # of observations and simulations are keyed by log, not by them.
 NOISE_FACTOR = defaults["diagnosis.noise_factor"]
 DEFAULT_ELEMENTS = defaults["diagnosis.n_elements"]
-PARAM_PENALTY = 0.05    # each parameter must buy 5 % of held-out gap
-SCREEN_KEEP = 5         # effects calibrated in full after the screen
-PAIR_FROM = 3           # pairs among the best three singles
-PAIR_WHEN_LEFT = 0.2    # fit a pair when the best single leaves this share of the gap
-PAIR_GAIN = 0.25        # a pair ranks above its members only if it shrinks their best held-out gap by this share
+PARAM_PENALTY = 0.05    # each parameter must buy 5 % of the held-out gap left
+SCREEN_KEEP = 5         # effects forward selection draws from after the screen
+MAX_EFFECTS = 4         # forward selection stops at this many effects at once
 
 GAP_DEFINITION = {
     "pitch_doublet": "RMS over 0.25 s bins (2 s before the doublet to the end) of the tracker's drogue x, y, z "

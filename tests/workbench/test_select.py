@@ -1,0 +1,249 @@
+"""Forward selection of several effects at once: the warm-started fit, the
+acceptance rule, the shares of the gap, MAX_EFFECTS, and the ranking with its
+probabilities. Synthetic residuals and scorers stand in for the simulation
+(a family's real selection takes minutes); one warm start runs on a real trail."""
+import math
+import types
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from workbench.diagnosis import fit as F
+from workbench.diagnosis import select as SEL
+from workbench.diagnosis.fit import EffectCalibrator, effects_at
+from workbench.diagnosis.rank import probabilities, rank_selection
+from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.setup import MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY, Setup, calibrated_params
+
+FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
+
+# ---------------------------------------------------------------- warm-started fit
+
+TRUTH = {"drogue_drag": {"scale": 0.6}, "tanker_wake": {"strength": 1.7}}
+T = np.linspace(0.0, 10.0, 400)
+NOISE_M = 0.01
+
+
+def _synthetic(calls):
+    """A residual (m) linear in log drogue-drag scale and bent in wake strength,
+    each log its own sensitivities, plus fixed noise of NOISE_M: its least
+    squares answer lies near TRUTH."""
+    def evaluate(path, effects, setup):
+        calls.append({e: dict(v) for e, v in effects.items()})
+        k = 1.0 + 0.3 * len(path)
+        d = effects.get("drogue_drag", {}).get("scale", 1.0)
+        w = effects.get("tanker_wake", {}).get("strength", 0.0)
+        r = (np.sin(k * T) * math.log(d / TRUTH["drogue_drag"]["scale"])
+             + np.cos(0.7 * k * T) * (w - TRUTH["tanker_wake"]["strength"]) * (1.0 + 0.1 * w)
+             + np.random.default_rng(len(path)).normal(0.0, NOISE_M, T.size))
+        return types.SimpleNamespace(r=r, segment=np.zeros(T.size, int))
+    return evaluate
+
+
+@pytest.fixture
+def calls(monkeypatch):
+    out = []
+    monkeypatch.setattr(F, "evaluate", _synthetic(out))
+    return out
+
+
+PARTS = ["a", "bb", "ccc"]
+
+
+def test_a_fit_started_at_the_answer_ends_there_within_its_standard_error(calls):
+    cold = EffectCalibrator(("drogue_drag", "tanker_wake")).fit(PARTS)
+    warm = EffectCalibrator(("drogue_drag", "tanker_wake")).fit(PARTS, start=cold.params_)
+    for e, ps in cold.params_.items():
+        for k, v in ps.items():
+            assert abs(warm.params_[e][k] - v) <= warm.stderr_[e][k], (e, k)
+            # and the answer is the truth within the noise: 3 standard errors
+            assert abs(v - TRUTH[e][k]) <= 3 * cold.stderr_[e][k], (e, k)
+    # the estimator's shape: fit returns itself, fitted attributes end in _
+    assert isinstance(warm, EffectCalibrator) and warm.gap_train_ < 1.5 * NOISE_M
+
+
+def test_a_warm_start_grids_only_the_new_effect_and_polishes_both(calls):
+    start = {"drogue_drag": {"scale": 0.7}}      # an earlier step's fit, a little off
+    cal = EffectCalibrator(("tanker_wake", "drogue_drag")).fit(PARTS, start=start)
+    # the grid: one parameter free -> 10 points and the off point, each on every part,
+    # the started parameter held at its start value throughout
+    grid = calls[:11 * len(PARTS)]
+    # (through the search's log scale and back: round-off only)
+    assert_allclose([c["drogue_drag"]["scale"] for c in grid], 0.7, rtol=1e-12)
+    assert len({c["tanker_wake"]["strength"] for c in grid}) == 10      # the off point 0 is a grid point
+    # the polish moved both: the truth within 3 standard errors
+    for e, ps in TRUTH.items():
+        for k, v in ps.items():
+            assert abs(cal.params_[e][k] - v) <= 3 * cal.stderr_[e][k], (e, k)
+
+
+# ---------------------------------------------------------------- acceptance rule
+
+def test_an_addition_must_beat_the_noise_and_the_parameter_penalty():
+    floor, current = 0.01, 0.5
+    assert "noise floor" in SEL.acceptance(NOISE_FACTOR * floor * 0.99, 1, current, floor)
+    penalty = PARAM_PENALTY * 2 * current
+    assert "parameter penalty" in SEL.acceptance(0.99 * penalty, 2, current, floor)
+    assert SEL.acceptance(1.01 * penalty, 2, current, floor) is None
+    assert SEL.acceptance(1.01 * penalty, 1, current, floor) is None
+
+
+# ---------------------------------------------------------------- forward selection
+
+def _scorer(explained: dict, floor: float, remainder: float = 0.0, jobs: list | None = None):
+    """A stand-in for `select.score_candidate`: a set's held-out gap is the
+    RMS of the noise floor, what no effect explains (`remainder`) and each
+    effect's part (`explained`) it leaves out; its fitted values 0.5 each."""
+    def score(job):
+        paths, cand, setup, warm = job
+        if jobs is not None:
+            jobs.append(job)
+        n = len(calibrated_params(cand))
+        g = math.sqrt(floor ** 2 + remainder ** 2 + sum(a ** 2 for e, a in explained.items() if e not in cand))
+        x = [0.5] * n
+        return Candidate("+".join(cand), list(cand), n, params=effects_at(cand, x),
+                         param_stderr=effects_at(cand, [0.01] * n), gap_after_heldout=g, gap_after_train=g,
+                         folds=[{"held_out": "L1", "params": x, "gap_train": g, "gap_heldout": g}])
+    return score
+
+
+def _serial(fn, jobs, progress=None):
+    return [fn(j) for j in jobs]
+
+
+POOL = ["drogue_lift", "tanker_wake", "drogue_drag", "hose_drag", "steady_wind"]
+
+
+def _select(explained, floor, remainder=0.0, jobs=None):
+    g0 = math.sqrt(floor ** 2 + remainder ** 2 + sum(a ** 2 for a in explained.values()))
+    return SEL.forward_select(["L1"], POOL, Setup(), _serial, g0, floor,
+                              score=_scorer(explained, floor, remainder, jobs)), g0
+
+
+def test_forward_selection_adds_what_beats_the_noise_and_refuses_the_rest():
+    jobs = []
+    sel, g0 = _select({"drogue_lift": 1.0, "tanker_wake": 0.5, "drogue_drag": 0.2, "hose_drag": 0.004},
+                      floor=0.01, jobs=jobs)
+    assert sel.chosen.effects == ["tanker_wake", "drogue_lift", "drogue_drag"]    # the registry's order
+    assert [s["added"] for s in sel.steps] == ["drogue_lift", "tanker_wake", "drogue_drag", "hose_drag"]
+    assert [s["accepted"] for s in sel.steps] == [True, True, True, False]
+    assert "hose_drag" in sel.stopped and "noise floor" in sel.stopped
+    # every step tries each screened effect not yet selected: 5 + 4 + 3 + 2
+    assert len(sel.fitted) == 14 and [c.step for c in sel.fitted].count(4) == 2
+    # from step 2 on, each fit starts where the selected set's was fitted
+    for job in jobs[5:]:
+        assert job[3] is not None and job[3]["folds"][0]
+    # each selected effect's share: its step's gain over the baseline held-out gap;
+    # together the selected set's shrink
+    s = sel.chosen.shares
+    assert list(s) == ["drogue_lift", "tanker_wake", "drogue_drag"]
+    assert_allclose(sum(s.values()), 1.0 - sel.chosen.gap_after_heldout / g0, rtol=1e-12)   # exact sums
+    assert_allclose(s["drogue_lift"], (g0 - sel.steps[0]["gap_heldout_after_m"]) / g0, rtol=1e-12)
+    assert sel.to_json()["effects"] == sel.chosen.effects
+
+
+def test_an_addition_below_its_parameter_penalty_is_refused():
+    # a model-form remainder no effect explains: steady_wind's two parameters buy
+    # less than 2 x PARAM_PENALTY of the gap left, above the noise
+    sel, _ = _select({"drogue_lift": 1.0, "steady_wind": 0.4}, floor=0.001, remainder=1.0)
+    assert sel.chosen.effects == ["drogue_lift"]
+    assert "parameter penalty" in sel.stopped and sel.steps[-1]["new_params"] == 2
+    # the same cut from one parameter is accepted
+    sel, _ = _select({"drogue_lift": 1.0, "hose_drag": 0.4}, floor=0.001, remainder=1.0)
+    assert sel.chosen.effects == ["drogue_lift", "hose_drag"]
+
+
+def test_an_effect_whose_fit_fails_leaves_the_pool():
+    score = _scorer({"drogue_lift": 1.0, "tanker_wake": 0.5}, floor=0.01)
+
+    def failing(job):
+        if "drogue_drag" in job[1]:
+            return Candidate("+".join(job[1]), list(job[1]), 1, success=False, message="diverged")
+        return score(job)
+    sel = SEL.forward_select(["L1"], POOL, Setup(), _serial, 1.2, 0.01, score=failing)
+    assert [c.effect for c in sel.failed] == ["drogue_drag"]
+    assert all("drogue_drag" not in c.effects for c in sel.fitted)
+
+
+def test_forward_selection_stops_at_max_effects():
+    sel, _ = _select({e: 1.0 / (i + 1) for i, e in enumerate(POOL)}, floor=0.001)
+    assert len(sel.chosen.effects) == MAX_EFFECTS == len(sel.steps)
+    assert all(s["accepted"] for s in sel.steps) and f"{MAX_EFFECTS} effects" in sel.stopped
+
+
+def test_nothing_is_selected_when_no_effect_beats_the_noise():
+    sel, _ = _select({"drogue_lift": 0.01}, floor=0.01)
+    assert sel.chosen is None and len(sel.steps) == 1 and not sel.steps[0]["accepted"]
+    assert sel.to_json()["effects"] == []
+
+
+# ---------------------------------------------------------------- ranking
+
+def _none(g0):
+    return Candidate("none", [], 0, gap_after_heldout=g0, score=g0)
+
+
+def test_the_selected_set_ranks_first_then_the_near_misses_by_score_with_probabilities():
+    sel, g0 = _select({"drogue_lift": 1.0, "tanker_wake": 0.5, "hose_drag": 0.004}, floor=0.01)
+    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200)
+    assert ranking[0] is sel.chosen and ranking[-1].effect == "none"
+    rest = ranking[1:-1]
+    assert [c.score for c in rest] == sorted(c.score for c in rest) and len(rest) == len(sel.fitted) - 1
+    # the refused addition (hose_drag, below the noise) is shown, behind the set
+    assert any(c.effect == "tanker_wake+drogue_lift+hose_drag" and "refused" in c.why_not_first for c in rest)
+    expect = probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking], 0.01, 200)
+    assert [c.probability for c in ranking] == expect
+    assert_allclose(sum(expect), 1.0, rtol=1e-12)
+
+
+def test_none_ranks_first_when_nothing_is_selected():
+    sel, g0 = _select({"drogue_lift": 0.01}, floor=0.01)
+    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200)
+    assert ranking[0].effect == "none" and len(ranking) == 1 + len(POOL)
+
+
+def test_an_implausible_selected_set_moves_behind_a_plausible_one_of_similar_gap():
+    sel, g0 = _select({"drogue_lift": 1.0, "tanker_wake": 0.001}, floor=0.01)
+    assert sel.chosen.effects == ["drogue_lift"]
+    sel.chosen.params = {"drogue_lift": {"scale": 0.0}}          # on its search bound
+    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200)
+    assert ranking[0].effect != "drogue_lift" and not ranking[0].implausible
+    assert "implausible" in next(c for c in ranking if c is sel.chosen).why_not_first
+
+
+# ---------------------------------------------------------------- a real log
+
+def test_a_warm_start_on_a_real_trail_ends_where_the_cold_fit_did():
+    path = str(FLIGHT / "TR-KDC10-E7.mcap")
+    cold = EffectCalibrator(("drogue_lift",)).fit([path])
+    warm = EffectCalibrator(("drogue_lift",)).fit([path], start=cold.params_)
+    assert abs(warm.params_["drogue_lift"]["scale"] - cold.params_["drogue_lift"]["scale"]) \
+        <= warm.stderr_["drogue_lift"]["scale"]
+    assert warm.gap_train_ <= cold.gap_train_ * (1 + 1e-6)      # no worse than where it started
+
+
+# ---------------------------------------------------------------- reported
+
+def test_the_selection_and_its_shares_are_in_the_json_the_findings_and_the_report_table():
+    from workbench.diagnosis.findings import findings
+    from workbench.diagnosis.report import _selection_blocks
+    from workbench.diagnosis.result import FamilyDiagnosis
+    sel, g0 = _select({"drogue_lift": 1.0, "tanker_wake": 0.5}, floor=0.01)
+    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200)
+    for c in ranking:
+        c.gap_before, c.shrink_heldout = g0, 1.0 - c.gap_after_heldout / g0
+    d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["L1"], n_elements=20,
+                        gap_definition="", gap_before=g0, noise_floor=0.01, gap_real=True, held_out_scheme="",
+                        screen={}, screened_out=[], not_applicable={}, ranking=ranking, failed=[],
+                        remaining_unexplained={"gap_m": ranking[0].gap_after_heldout, "above_noise_m": 0.0},
+                        gap={}, gap_after_best={}, wall_s=1.0, selection=sel.to_json())
+    js = d.to_json()
+    assert js["ranking"][0]["shares"] == sel.chosen.shares and js["selection"]["effects"] == sel.chosen.effects
+    text = "\n".join(findings(d))
+    share = 100 * sel.chosen.shares["drogue_lift"]
+    assert f"Forward selection added drogue_lift ({share:.0f} % of the gap" in text and "stopped because" in text
+    table, para = _selection_blocks(js)
+    assert [r[6].text for r in table.rows] == ["accepted", "accepted", "refused"]
+    assert "tanker_wake + drogue_lift" in para.text

@@ -1,0 +1,156 @@
+"""Forward selection of several effects at once: from the baseline, add the
+screened effect that most cuts the held-out gap, one step at a time.
+
+Step k fits every screened effect not yet selected (nor failed to simulate)
+together with the k - 1 selected ones (`score_candidate`: per fold and on all logs, warm-started at the
+selected set's fitted values, `fit.EffectCalibrator.fit(parts, start=...)`)
+and scores it held out on the same folds. The best addition is accepted when
+its held-out gain over the current set (current gap minus its gap, m) beats
+both the noise, gain > `NOISE_FACTOR` x the noise floor, and the parameter
+penalty, gain > `PARAM_PENALTY` x (its new parameters) x the current held-out
+gap: each parameter must buy `PARAM_PENALTY` of what is left (Occam's rule).
+Otherwise, or at `MAX_EFFECTS` effects, the selection stops and says why.
+Each accepted effect's share of the gap is its step's gain over the baseline
+held-out gap: the shares add up to the selected set's held-out shrink.
+
+The hook points are the pool (a list of effect names, best screened first)
+and `score` (a function of one job, (paths, candidate, setup, warm), that
+returns a `Candidate`): another candidate kind or scorer plugs in there.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+from typing import Callable
+
+from workbench.diagnosis.evaluate import gap
+from workbench.diagnosis.fit import EffectCalibrator, effects_at, ordered, splitter_for
+from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.setup import MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY, calibrated_params
+from workbench.errors import SimulationFailed
+
+
+def warm_start(c: Candidate) -> dict:
+    """Where a fit that adds an effect to `c` starts: each fold at `c`'s
+    values fitted on that fold, the all-logs fit at `c`'s own."""
+    return {"folds": [effects_at(tuple(c.effects), f["params"]) for f in c.folds], "all": c.params}
+
+
+def score_candidate(job) -> Candidate:
+    """One candidate on one family: fitted per fold and on all logs (from
+    `warm`, a `warm_start`, or cold when None); each fold's held-out gap. Runs
+    in a worker process (or a Dask worker)."""
+    paths, candidate, setup, warm = job
+    t_start = time.perf_counter()
+    n_params = len(calibrated_params(candidate))
+    try:
+        return _fit_and_score(paths, candidate, setup, warm, n_params, t_start)
+    except SimulationFailed as exc:
+        return Candidate("+".join(candidate), list(candidate), n_params, success=False, message=str(exc),
+                         wall_s=time.perf_counter() - t_start)
+
+
+def _fit_and_score(paths, candidate, setup, warm, n_params, t_start) -> Candidate:
+    folds, fitted = [], []
+    for i, fold in enumerate(splitter_for(paths).split(paths)):
+        cal = EffectCalibrator(candidate, setup).fit(fold.train, start=warm and warm["folds"][i])
+        folds.append({"held_out": fold.label, "params": cal.x_, "gap_train": cal.gap_train_,
+                      "gap_heldout": cal.score(fold.test)})
+        fitted.append(cal)
+    if len(paths) == 1:
+        # one log: the parameters are the mean of the two folds' values, their
+        # spread folded into the error
+        a, b = fitted
+        full = EffectCalibrator(candidate, setup).set_fitted(
+            [0.5 * (x + y) for x, y in zip(a.x_, b.x_)],
+            [math.hypot(0.5 * (sa + sb), 0.5 * (x - y))
+             for x, y, sa, sb in zip(a.x_, b.x_, a.stderr_x_, b.stderr_x_)])
+    else:
+        full = EffectCalibrator(candidate, setup).fit(paths, start=warm and warm["all"])
+    per_log = dict(zip((Path(p).stem for p in paths), full.part_gaps(paths)))
+    return Candidate("+".join(candidate), list(candidate), n_params, params=full.params_,
+                     param_stderr=full.stderr_,
+                     gap_after_train=gap([f["gap_train"] for f in folds]),
+                     gap_after_heldout=gap([f["gap_heldout"] for f in folds]),
+                     gap_after_all_fit_per_log=per_log, folds=folds, wall_s=time.perf_counter() - t_start)
+
+
+def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str | None:
+    """Why an addition that cuts the held-out gap `current_gap` by `gain` (m)
+    with `n_new` new parameters is refused, or None when it is accepted."""
+    noise, penalty = NOISE_FACTOR * floor, PARAM_PENALTY * n_new * current_gap
+    if gain <= noise:
+        return f"cuts the held-out gap by {gain:.4f} m, not more than {NOISE_FACTOR:g} x the noise floor ({noise:.4f} m)"
+    if gain <= penalty:
+        return (f"cuts the held-out gap by {gain:.4f} m, not more than the parameter penalty ({PARAM_PENALTY:g} x "
+                f"{n_new} new parameter(s) x the held-out gap {current_gap:.4f} m = {penalty:.4f} m)")
+    return None
+
+
+@dataclasses.dataclass
+class Selection:
+    """What forward selection found: `chosen` the selected set (None: no
+    effect earned its place), `fitted` every candidate scored on the way (each
+    step's alternatives, the accepted sets among them), `failed` those whose
+    simulation failed, `steps` one dict per step, `stopped` why it ended."""
+
+    chosen: Candidate | None
+    fitted: list
+    failed: list
+    steps: list
+    stopped: str
+
+    def to_json(self) -> dict:
+        return {"effects": list(self.chosen.effects) if self.chosen else [],
+                "shares": dict(self.chosen.shares) if self.chosen else {}, "steps": self.steps,
+                "stopped": self.stopped, "max_effects": MAX_EFFECTS}
+
+
+def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before: float, floor: float,
+                   score: Callable = score_candidate, say: Callable[[str], None] = lambda s: None) -> Selection:
+    """Forward selection over `pool` (effect names) from the baseline, whose
+    held-out gap is `gap_before` (m), against the noise floor `floor` (m)."""
+    chosen, current, fitted, failed, steps, dropped = None, gap_before, [], [], [], set()
+    stopped = f"{MAX_EFFECTS} effects selected (the most forward selection adds)"
+    for k in range(1, MAX_EFFECTS + 1):
+        selected = tuple(chosen.effects) if chosen else ()
+        # an effect whose fit failed to simulate is out of the pool: it failed
+        rest = [e for e in pool if e not in selected and e not in dropped]
+        if not rest:
+            stopped = "every screened effect is selected"
+            break
+        warm = warm_start(chosen) if chosen else None
+        jobs = [(paths, ordered(selected + (e,)), setup, warm) for e in rest]
+        say(f"step {k}: " + ", ".join("+".join(j[1]) for j in jobs))
+        out = list(mapper(score, jobs, progress=lambda c: say(f"fitted {c.effect}")))
+        failed += [c for c in out if not c.success]
+        dropped |= {next(e for e in c.effects if e not in selected) for c in out if not c.success}
+        ok = [c for c in out if c.success]
+        for c in ok:
+            c.step = k
+        fitted += ok
+        if not ok:
+            stopped = f"step {k}: no addition could be simulated"
+            break
+        best = min(ok, key=lambda c: c.gap_after_heldout)
+        added = next(e for e in best.effects if e not in selected)
+        gain = current - best.gap_after_heldout
+        n_new = best.n_params - (chosen.n_params if chosen else 0)
+        refused = acceptance(gain, n_new, current, floor)
+        steps.append({"step": k, "added": added, "candidate": best.effect, "gap_heldout_before_m": current,
+                      "gap_heldout_after_m": best.gap_after_heldout, "gain_m": gain, "new_params": n_new,
+                      "accepted": refused is None, "share": gain / gap_before if gap_before else None,
+                      "alternatives": {c.effect: c.gap_after_heldout for c in ok if c is not best}})
+        for c in ok:
+            if c is not best:
+                c.why_not_first = f"step {k}: adding {added} cut the held-out gap more"
+        if refused:
+            best.why_not_first = f"step {k}: adding {added} refused, it {refused}"
+            stopped = f"step {k}: the best addition, {added}, {refused}"
+            break
+        best.shares = {**(chosen.shares if chosen else {}), added: steps[-1]["share"]}
+        chosen, current = best, best.gap_after_heldout
+        say(f"step {k}: {added} accepted, held-out gap {current:.3f} m")
+    return Selection(chosen, fitted, failed, steps, stopped)
