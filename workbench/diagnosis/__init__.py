@@ -14,6 +14,9 @@ Modules by concern, data flowing down the list:
   `TimeBlocks`).
 * `screen`: each effect's sensitivity directions and the share of the
   residual they span.
+* `turbulence`: turbulence from its statistics (the drogue's random motion
+  above the tracker noise against a seeded Dryden ensemble): its candidate,
+  sigma with its error, and the steady floor a deterministic effect must beat.
 * `rank`: one family's diagnosis and the `diagnose` of many logs.
 * `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
 * `findings`: the diagnosis in words.

@@ -39,6 +39,7 @@ from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import EffectCalibrator, splitter_for
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
+from workbench.diagnosis.turbulence import best_deterministic, is_random, random_candidate
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, NOISE_FACTOR, PAIR_FROM,
                                        PAIR_GAIN, PAIR_WHEN_LEFT, PARAM_PENALTY, SCREEN_KEEP, Setup, applicable,
                                        calibrated_params, family_of, to_unit)
@@ -211,6 +212,10 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
                              progress=lambda c: say(f"fitted {c.effect}")))
         failed += [c for c in fitted if not c.success]
         results += [c for c in fitted if c.success]
+    # turbulence from its statistics, against the time runs of the best deterministic fit
+    turb = random_candidate(paths, base, best_deterministic(results, gap_before_heldout), setup, mapper)
+    (results if turb.candidate.success else failed).append(turb.candidate)
+    excluded.pop("turbulence", None)
     for c in failed:
         say(f"failed, not ranked: {c.effect}: {c.message}")
     for c in results:
@@ -219,7 +224,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         c.shrink_heldout = 1.0 - c.gap_after_heldout / gap_before_heldout if gap_before_heldout else None
         c.score = c.gap_after_heldout * (1 + PARAM_PENALTY * c.n_params)
         c.screen_share = {e: scores.get(e) for e in c.effects}
-    results = _ranked(results, singles, floor)
+    results = turb.credit_steady(_ranked(results, singles, floor))
     none = Candidate("none", [], 0, gap_before=gap_before_heldout if len(paths) == 1 else gap_before,
                      gap_after_train=gap_before_train, gap_after_heldout=gap_before_heldout, shrink_heldout=0.0,
                      score=gap_before_heldout)
@@ -239,7 +244,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # where the gap lies once the best explanation is in (its parameters fitted
     # on all logs): what is left for the next effect to explain
     after = {}
-    if ranking[0].effect != "none":
+    if ranking[0].effect != "none" and not is_random(ranking[0]):
         after = {Path(p).stem: where_map(observed(p), evaluate(p, ranking[0].params, setup)) for p in paths}
     return FamilyDiagnosis(
         family=family_of(recs[paths[0]]), kind=kind, logs=[Path(p).stem for p in paths],
@@ -250,7 +255,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         ranking=ranking, failed=failed,
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
-        gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start)
+        gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m)
 
 
 def group_families(paths) -> dict[str, list[str]]:

@@ -96,6 +96,7 @@ class FamilyDiagnosis:
     gap: dict                     # where-map per log, baseline
     gap_after_best: dict          # where-map per log with the best explanation
     wall_s: float
+    steady_floor_m: float = 0.0   # the offset turbulence of sigma_hat leaves by chance (`turbulence.steady_floor`)
 
     @property
     def success(self) -> bool:
