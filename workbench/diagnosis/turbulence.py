@@ -67,7 +67,10 @@ SIGMA_REF_MPS = 1.0     # the ensemble's intensity: MIL-HDBK-1797's 'light' is 1
 N_SEEDS = 8             # ensemble members per log: the realisation spread to ~25 %
 LENGTH_SCALE_M = EFFECTS["turbulence"].params["length_scale_m"].default
 MAD_SIGMA = 1.4826      # sigma of a normal distribution per median absolute deviation
-MAD_REL_SD = 1.166      # sd of a MAD-based sigma over sigma, times sqrt(samples) (normal data)
+# sd of the MAD-based noise sd over itself, times sqrt(second differences): 1.166 for
+# independent normal samples, widened by sqrt(1 + 2 (rho1^2 + rho2^2)) for the second
+# differences' own correlation (lag 1: -2/3, lag 2: 1/6), as for a variance estimate
+MAD_REL_SD = 1.166 * math.sqrt(1.0 + 2.0 * ((2.0 / 3.0) ** 2 + (1.0 / 6.0) ** 2))
 DETECT_Z = 2.0          # sigma^2 at two standard errors from zero is detected
 
 
@@ -155,13 +158,16 @@ class LogStatistics:
 
     def excess(self, segment: int | None = None) -> tuple[float, float, float]:
         """The log's band power above its noise, the noise power removed, and
-        the variance of that removal (chi-square of the binned noise and the
-        noise estimate's own error), m^2, m^2, m^4."""
+        the variance the noise leaves in that difference (its chi-square in the
+        bins, its product with the motion, the noise estimate's own error),
+        m^2, m^2, m^4."""
         sel = self.selected(segment)
-        noise = float(np.sum(self.noise_sd ** 2) * np.sum((1.0 - self.lev[sel]) / self.n[sel]))
-        chi = 2.0 * float(np.sum(self.noise_sd ** 4)) * float(np.sum(1.0 / self.n[sel] ** 2))
+        var_bin = self.noise_sd ** 2 / self.n[sel, None]          # (bins, 3) noise variance of a bin mean
+        noise = float(np.sum((1.0 - self.lev[sel, None]) * var_bin))
+        chi = 2.0 * float(np.sum(var_bin ** 2))
+        cross = 4.0 * float(np.sum(self.d[sel] ** 2 * var_bin))
         est = (2.0 * MAD_REL_SD / math.sqrt(max(self.n_noise, 1)) * noise) ** 2
-        return band_power(self.d, self.mid, segment) - noise, noise, chi + est
+        return band_power(self.d, self.mid, segment) - noise, noise, chi + cross + est
 
     def unit_powers(self, segment: int | None = None) -> np.ndarray:
         """Each member's band power per unit sigma^2, m^2 / (m/s)^2."""
@@ -189,31 +195,37 @@ def _at_fixes(sim, t) -> np.ndarray:
     return np.column_stack([np.interp(t, ts, xyz[:, c]) for c in range(3)])
 
 
-def log_statistics(job) -> LogStatistics:
-    """(path, deterministic effects, setup, first seed): the log's residual
-    against the deterministic time run, its noise, and the ensemble. A
-    module-level function: the diagnosis maps it over a family's logs."""
-    path, effects, setup, seed0 = job
-    ob = observed(path)
-    t, xyz = ob.fix_t, ob.fix_xyz
-    base = _run(path, effects, setup)
-    y0 = _at_fixes(base, t)
-    r0 = residual(ob, base)
+def statistics_of(path: str, t, xyz, y0, members, gap_resp, gap_segment) -> LogStatistics:
+    """A log's statistics from its fixes (`t`, `xyz` (n, 3)), the deterministic
+    run at them (`y0`), each ensemble member's run at them (`members`,
+    (K, n, 3), at SIGMA_REF_MPS) and the members' gap-component shifts."""
     edges = np.arange(t[0], t[-1] + BIN_S, BIN_S)
     d, n, mid = bin_means(t, xyz - y0, edges)
     Q = deterministic_directions(bin_means(t, y0, edges)[0], mid)
 
     def off(y):   # bin means with the deterministic directions projected off
         return y - Q @ (Q.T @ y)
-    resp, gresp = [], []
+    resp = [off(bin_means(t, m - y0, edges)[0]) for m in members]
+    noise, n_noise = tracker_noise(t, xyz)
+    return LogStatistics(path, mid, n, np.sum(Q ** 2, axis=1), off(d), noise, n_noise, np.array(resp),
+                         np.asarray(gap_resp, float), np.asarray(gap_segment))
+
+
+def log_statistics(job) -> LogStatistics:
+    """(path, deterministic effects, setup, first seed): the log's residual
+    against the deterministic time run, its noise, and the ensemble. A
+    module-level function: the diagnosis maps it over a family's logs."""
+    path, effects, setup, seed0 = job
+    ob = observed(path)
+    base = _run(path, effects, setup)
+    r0 = residual(ob, base)
+    members, gresp = [], []
     for k in range(N_SEEDS):
         turb = {"sigma_mps": SIGMA_REF_MPS, "length_scale_m": LENGTH_SCALE_M, "seed": seed0 + k}
         sim = _run(path, {**effects, "turbulence": turb}, setup)
-        resp.append(off(bin_means(t, _at_fixes(sim, t) - y0, edges)[0]))
+        members.append(_at_fixes(sim, ob.fix_t))
         gresp.append(residual(ob, sim).r - r0.r)
-    noise, n_noise = tracker_noise(t, xyz)
-    return LogStatistics(path, mid, n, np.sum(Q ** 2, axis=1), off(d), noise, n_noise, np.array(resp),
-                         np.array(gresp), r0.segment)
+    return statistics_of(path, ob.fix_t, ob.fix_xyz, _at_fixes(base, ob.fix_t), members, gresp, r0.segment)
 
 
 # ---- sigma from the statistics ------------------------------------------------------------
