@@ -185,3 +185,44 @@ def test_the_diagnosis_ranks_turbulence_first_on_a_turbulent_doublet_and_not_on_
         d = diagnose_family([path], Setup(), mapper)
     assert d.ranking[0].effect == "steady_wind"
     assert [c.effect for c in d.ranking].index("turbulence") > 0
+
+
+class _Base:
+    """A baseline residual: components `r` with their noise `floor` and segments."""
+
+    def __init__(self, r, floor, segment):
+        self.r, self.floor, self.segment = np.asarray(r, float), np.asarray(floor, float), np.asarray(segment)
+
+
+def _family(rng, sigma, g=0.1):
+    """One synthetic log's statistics with four gap components (two per
+    segment) whose members shift them by 0.05 m per m/s, and a baseline of
+    components `g` with a 0.005 m noise floor."""
+    t, xyz, members, _ = _record(rng, sigma)
+    seg = np.array([0, 1, 0, 1])
+    shift = 0.05 * np.array([[1, -1, 1, -1]] * len(members)) * rng.choice([-1.0, 1.0], (len(members), 1))
+    st = statistics_of("synthetic", t, xyz, np.zeros_like(xyz), members, SIGMA_REF_MPS * shift, seg)
+    return st, {"synthetic": _Base([g, -g, g, g], [0.005] * 4, seg)}
+
+
+def test_held_out_gap_removes_the_random_mean_square_sigma_predicts_and_nothing_unless_real():
+    from workbench.diagnosis.fit import TimeBlocks
+    from workbench.diagnosis.turbulence import turbulence_candidate
+    rng = np.random.default_rng(12)
+    st, base = _family(rng, 0.8)
+    folds = list(TimeBlocks(2.0).split(["synthetic"]))
+    c, est = turbulence_candidate([st], base, folds)
+    held = []
+    for fold, row in zip(folds, c.folds):
+        s2 = estimate_sigma([st], [(0, fold.train[0][1])]).sigma_mps ** 2
+        # each held-out component's mean square 0.1^2, the random share sigma^2 0.05^2
+        held.append(math.sqrt(max(0.1 ** 2 - s2 * 0.05 ** 2, 0.005 ** 2)))
+        assert_allclose(row["gap_heldout"], held[-1], rtol=1e-12)
+    assert_allclose(c.gap_after_heldout, rms(held), rtol=1e-12)
+    assert c.params["turbulence"]["sigma_mps"] == est.sigma_mps and est.real
+    # noise alone: it explains nothing, the held-out gap is the baseline's
+    st, base = _family(rng, 0.0)
+    c, est = turbulence_candidate([st], base, folds)
+    assert not est.real
+    assert_allclose(c.gap_after_heldout, 0.1, rtol=1e-12)
+    assert "no random motion" in c.why_not_first
