@@ -35,7 +35,10 @@ sigma^2 of the part's gap components (turbulence run minus deterministic run).
 It is named (credited anything) only when its random motion is real: sigma
 detected at two standard errors and its band RMS above `NOISE_FACTOR` times
 the tracker noise left in the band; otherwise it explains nothing (its gap is
-the baseline's). It explains random variance only: never a steady offset.
+the baseline's). Like every candidate it then ranks above "none" only if it
+shrinks the held-out gap by more than its parameter penalty (a real share of
+the gap). It explains random variance only: never a steady offset, and it
+has no realisation to simulate (`is_random`: no where-map after it).
 
 The steady floor (`steady_floor`, `RandomEffect.credit_steady`): the RMS of the gap
 components' shift a turbulence of sigma_hat leaves by chance (from the same
