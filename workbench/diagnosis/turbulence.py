@@ -32,8 +32,9 @@ parts; each held-out part's gap is what remains of the baseline's once the
 random mean square the fitted sigma predicts there is removed,
 sqrt(max(g^2 - sigma^2 u, floor^2)), u the ensemble's mean square per unit
 sigma^2 of the part's gap components (turbulence run minus deterministic run).
-It is named (credited anything) only when its random motion is real: sigma
-detected at two standard errors and its band RMS above `NOISE_FACTOR` times
+It is named (credited anything) only when its random motion is real: sigma^2
+detected at two standard errors of its estimate under sigma = 0 (the noise
+term's alone) and its band RMS above `NOISE_FACTOR` times
 the tracker noise left in the band; otherwise it explains nothing (its gap is
 the baseline's). Like every candidate it then ranks above "none" only if it
 shrinks the held-out gap by more than its parameter penalty (a real share of
@@ -268,8 +269,10 @@ def estimate_sigma(stats: list[LogStatistics], parts: list | None = None) -> Sig
     se = se_s2 / (2.0 * sigma) if sigma > 0.5 * math.sqrt(se_s2) else math.sqrt(se_s2)
     n_bins = sum(int(np.sum(stats[i].selected(s))) for i, s in parts) * 3
     band, noise_rms = math.sqrt(s2 * u / n_bins), math.sqrt(noise / n_bins)
-    if s2 < DETECT_Z * se_s2:
-        why = f"sigma^2 {s2:.3g} (m/s)^2 within {DETECT_Z:g} standard errors ({se_s2:.2g}) of zero"
+    # detection is a test against sigma = 0, where only the noise term is left
+    se_zero = math.sqrt(noise_var) / u
+    if s2 < DETECT_Z * se_zero:
+        why = f"sigma^2 {s2:.3g} (m/s)^2 within {DETECT_Z:g} standard errors ({se_zero:.2g}) of zero"
     elif band < NOISE_FACTOR * noise_rms:
         why = (f"its drogue-band motion {band:.3f} m is below {NOISE_FACTOR:g} x the tracker noise left "
                f"there ({noise_rms:.3f} m)")
