@@ -384,8 +384,9 @@ _register(Effect(
         "seed": Param("-", 1, 0, 2 ** 31 - 1, "random seed: same seed, same field", integer=True, off=1),
     },
     apply=_apply_turbulence,
-    not_calibrated=("a random field: its realisation cannot be fitted to a time history; its level shows "
-                    "in the where-map's band above the steady offset against the log's own noise")))
+    not_calibrated=("a random field: its realisation cannot be fitted to a time history; the diagnosis "
+                    "estimates sigma from the drogue's random motion above the log's own noise "
+                    "(workbench.diagnosis.turbulence)")))
 
 _register(Effect(
     "bow_wave", "Receiver bow wave",

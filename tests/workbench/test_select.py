@@ -247,3 +247,54 @@ def test_the_selection_and_its_shares_are_in_the_json_the_findings_and_the_repor
     table, para = _selection_blocks(js)
     assert [r[6].text for r in table.rows] == ["accepted", "accepted", "refused"]
     assert "tanker_wake + drogue_lift" in para.text
+
+
+# ---------------------------------------------------------------- the random effect
+
+def _turb(effects, gap_heldout):
+    return Candidate("+".join(effects), list(effects), 1, gap_after_heldout=gap_heldout,
+                     params={"turbulence": {"sigma_mps": 1.0, "length_scale_m": 533.4}})
+
+
+def test_turbulence_joins_the_selected_set_by_the_same_acceptance_rule():
+    sel, g0 = _select({"drogue_lift": 1.0}, floor=0.01, remainder=0.3)
+    current = sel.chosen.gap_after_heldout                      # the remainder and the noise: ~0.30 m
+    # the random mean square removed cuts the set's gap to 0.05 m, and alone the
+    # baseline's by 10 %: accepted, a second share
+    joint = _turb(sel.chosen.effects + ["turbulence"], 0.05)
+    out = SEL.with_random(sel, _turb(["turbulence"], 0.9 * g0), joint, g0, 0.01)
+    assert out.chosen is joint and out.steps[-1]["accepted"]
+    assert_allclose(out.chosen.shares["turbulence"], (current - 0.05) / g0, rtol=1e-12)
+    assert_allclose(sum(out.chosen.shares.values()), 1.0 - 0.05 / g0, rtol=1e-12)
+    # a cut within the noise is refused: the set stays, both shown among the fitted
+    small = _turb(sel.chosen.effects + ["turbulence"], current - 0.5 * NOISE_FACTOR * 0.01)
+    out = SEL.with_random(sel, _turb(["turbulence"], 0.9 * g0), small, g0, 0.01)
+    assert out.chosen is sel.chosen and not out.steps[-1]["accepted"] and small in out.fitted
+    # too small beside the whole departure (alone it cuts the baseline's gap by 1 %): refused
+    joint = _turb(sel.chosen.effects + ["turbulence"], 0.05)
+    out = SEL.with_random(sel, _turb(["turbulence"], 0.99 * g0), joint, g0, 0.01)
+    assert out.chosen is sel.chosen and "alone against the baseline" in joint.why_not_first
+    # nothing selected: turbulence alone, against the baseline
+    none_sel = SEL.Selection(None, [], [], [], "nothing earned its place")
+    alone = _turb(["turbulence"], 0.3 * g0)
+    assert SEL.with_random(none_sel, alone, None, g0, 0.01).chosen is alone
+
+
+def test_effective_components_count_white_noise_fully_and_a_smooth_remainder_as_a_few():
+    from workbench.diagnosis.rank import effective_components
+    rng = np.random.default_rng(8)
+    n, rho = 4000, 0.9
+
+    def res(r):
+        return types.SimpleNamespace(r=r, channel=np.full(len(r), "drogue z"))
+    white = rng.normal(0.0, 0.01, n)
+    ar = np.zeros(n)
+    for i in range(1, n):
+        ar[i] = rho * ar[i - 1] + rng.normal(0.0, 0.01)
+    # the lag-1 estimate's sampling error is ~1/sqrt(n) = 0.016: 5 % of n for white noise
+    assert_allclose(effective_components([res(white)]), n, rtol=0.05)
+    # AR(1): n (1 - rho) / (1 + rho) = 211; rho's error 0.007 moves it by ~8 %
+    assert_allclose(effective_components([res(ar)]), n * (1 - rho) / (1 + rho), rtol=0.1)
+    # a constant offset is one piece of evidence; channels and logs add up
+    assert_allclose(effective_components([res(np.full(50, 0.2))]), 1.0)
+    assert_allclose(effective_components([res(np.full(50, 0.2)), res(white)]), 1.0 + n, rtol=0.05)

@@ -16,6 +16,9 @@ Modules by concern, data flowing down the list:
   residual they span.
 * `select`: forward selection of several effects at once (warm-started
   fits, the acceptance rule, each selected effect's share of the gap).
+* `turbulence`: turbulence from its statistics (the drogue's random motion
+  above the tracker noise against a seeded Dryden ensemble): its candidate,
+  sigma with its error, and the steady floor a deterministic effect must beat.
 * `rank`: one family's diagnosis and the `diagnose` of many logs.
 * `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
 * `remainder`: what no library effect explains, per channel and station;

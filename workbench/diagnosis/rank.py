@@ -40,9 +40,10 @@ from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
-from workbench.diagnosis.select import Selection, forward_select
+from workbench.diagnosis.select import Selection, forward_select, with_random
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
                                        SCREEN_KEEP, Setup, applicable, calibrated_params, family_of, to_unit)
+from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
 
@@ -90,10 +91,29 @@ def plausible_first(ranking: list, floor: float) -> list:
     return sorted(ranking, key=lambda c: pos[id(c)])
 
 
-def probabilities(gaps, n_params, floor: float, n: int) -> list[float]:
+def effective_components(residuals) -> float:
+    """How many independent pieces of evidence `residuals` (each a
+    `Residual`) hold: per log and channel, n (1 - rho) / (1 + rho), rho the
+    lag-1 autocorrelation of its components in their order (time, then
+    station), at least one; Bartlett's effective sample size of an AR(1)
+    series (Zwiers & von Storch 1995). A model-form remainder is smooth, so
+    hundreds of its components carry the evidence of a few."""
+    n = 0.0
+    for R in residuals:
+        for ch in np.unique(R.channel):
+            x = R.r[R.channel == ch]
+            if len(x) < 3 or not np.any(x):
+                n += len(x)
+                continue
+            rho = min(max(float(np.dot(x[:-1], x[1:]) / np.dot(x, x)), 0.0), 1.0)
+            n += max(len(x) * (1.0 - rho) / (1.0 + rho), 1.0)
+    return n
+
+
+def probabilities(gaps, n_params, floor: float, n: float) -> list[float]:
     """Akaike weights of candidates from their held-out gaps (RMS, m) over `n`
-    held-out residual components: -2 ln L = n g^2 / s^2 under Gaussian noise of
-    variance s^2 = max(floor^2, g_min^2) (the log's noise, widened to the best
+    effective held-out residual components (`effective_components`):
+    -2 ln L = n g^2 / s^2 under Gaussian noise of variance s^2 = max(floor^2, g_min^2) (the log's noise, widened to the best
     candidate's misfit when that is larger, so a model-form remainder is not
     read as evidence; Burnham & Anderson's quasi-likelihood), plus 2 per
     parameter. They sum to 1 over the candidates given."""
@@ -104,7 +124,7 @@ def probabilities(gaps, n_params, floor: float, n: int) -> list[float]:
     return (w / w.sum()).tolist()
 
 
-def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: int) -> list:
+def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: float) -> list:
     """The ranking of what forward selection fitted: the selected set first,
     then the other candidates by score (held-out gap x (1 + `PARAM_PENALTY`
     per parameter)), `none` last; `none` first when no set was selected. Then
@@ -156,6 +176,13 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     say("screen: " + ", ".join(f"{e} {scores[e]:.2f}" for e in order))
     sel = forward_select(paths, order[:SCREEN_KEEP], setup, mapper, gap_before_heldout, floor, say=say)
     failed += sel.failed
+    # turbulence from its statistics, its random motion measured about the selected set's time runs
+    turb = random_candidate(paths, base, sel.chosen, setup, mapper)
+    excluded.pop("turbulence", None)
+    if turb.candidate.success:
+        sel = with_random(sel, turb.candidate, turb.joint, gap_before_heldout, floor)
+    else:
+        failed.append(turb.candidate)
     say(f"selection: {'+'.join(sel.chosen.effects) if sel.chosen else 'none'} ({sel.stopped})")
     for c in failed:
         say(f"failed, not ranked: {c.effect}: {c.message}")
@@ -171,13 +198,18 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     if sel.chosen is None:
         none.why = ("the baseline explains the logs to within their noise" if within_noise else
                     f"no effect earns its place: {sel.stopped}")
-    ranking = rank_selection(sel, none, floor, sum(len(base[p].r) for p in paths))
+    # the evidence's independent pieces, counted in what the selected set leaves
+    det = {e: v for e, v in (sel.chosen.params if sel.chosen else {}).items() if e != "turbulence"}
+    n_eff = effective_components([evaluate(p, det, setup) for p in paths])
+    ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff))
     remaining = ranking[0].gap_after_heldout
-    # where the gap lies once the best explanation is in (its parameters fitted
-    # on all logs): what is left for the next effect to explain
+    # where the gap lies once the best explanation's deterministic effects are in
+    # (their parameters fitted on all logs): what is left for the next effect to
+    # explain; a random effect has no realisation to simulate
     after = {}
-    if ranking[0].effect != "none":
-        after = {Path(p).stem: where_map(observed(p), evaluate(p, ranking[0].params, setup)) for p in paths}
+    det = {e: v for e, v in ranking[0].params.items() if e != "turbulence"}
+    if det:
+        after = {Path(p).stem: where_map(observed(p), evaluate(p, det, setup)) for p in paths}
     return FamilyDiagnosis(
         family=family_of(recs[paths[0]]), kind=kind, logs=[Path(p).stem for p in paths],
         n_elements=setup.n_elements, gap_definition=GAP_DEFINITION[kind], gap_before=gap_before,
@@ -187,7 +219,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         ranking=ranking, failed=failed, selection=sel.to_json(),
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
-        gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start)
+        gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m)
 
 
 def group_families(paths) -> dict[str, list[str]]:

@@ -107,6 +107,7 @@ class FamilyDiagnosis:
     gap_after_best: dict          # where-map per log with the best explanation
     wall_s: float
     selection: dict = dataclasses.field(default_factory=dict)
+    steady_floor_m: float = 0.0   # the offset turbulence of sigma_hat leaves by chance (`turbulence.steady_floor`)
 
     @property
     def success(self) -> bool:

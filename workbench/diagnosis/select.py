@@ -154,3 +154,35 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         chosen, current = best, best.gap_after_heldout
         say(f"step {k}: {added} accepted, held-out gap {current:.3f} m")
     return Selection(chosen, fitted, failed, steps, stopped)
+
+
+def with_random(sel: Selection, alone: Candidate, joint: Candidate | None, gap_before: float,
+                floor: float) -> Selection:
+    """`sel` with the random effect's candidates among the fitted: turbulence
+    `alone` (against the baseline) and `joint` (the selected set with it, or
+    None). The acceptance rule of a deterministic step, one new parameter,
+    admits it onto the selected set (none selected: alone) only when it also
+    earns its place alone against the baseline: a random motion too small to
+    matter beside the logs' whole departure (the light turbulence of every
+    flight) keeps its sigma in the ranking but is not named. Its share is its
+    gain on top of the set over the baseline held-out gap."""
+    extra = [c for c in (alone, joint) if c is not None]
+    current = sel.chosen.gap_after_heldout if sel.chosen else gap_before
+    cand = joint if sel.chosen is not None else alone
+    if cand is None:
+        return dataclasses.replace(sel, fitted=sel.fitted + extra)
+    gain = current - cand.gap_after_heldout
+    refused = (acceptance(gain, 1, current, floor)
+               or (acceptance(gap_before - alone.gap_after_heldout, 1, gap_before, floor) and
+                   "does not earn its place alone against the baseline"))
+    k = len(sel.steps) + 1
+    step = {"step": k, "added": "turbulence", "candidate": cand.effect, "gap_heldout_before_m": current,
+            "gap_heldout_after_m": cand.gap_after_heldout, "gain_m": gain, "new_params": 1,
+            "accepted": not refused, "share": gain / gap_before if gap_before else None, "alternatives": {}}
+    cand.step = k
+    if refused:
+        cand.why_not_first = cand.why_not_first or f"adding turbulence refused, it {refused}"
+        return dataclasses.replace(sel, fitted=sel.fitted + extra, steps=sel.steps + [step])
+    cand.shares = {**(sel.chosen.shares if sel.chosen else {}), "turbulence": step["share"]}
+    return dataclasses.replace(sel, chosen=cand, fitted=sel.fitted + extra, steps=sel.steps + [step],
+                               stopped=f"{sel.stopped}; then turbulence accepted from its statistics")

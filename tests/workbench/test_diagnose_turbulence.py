@@ -1,0 +1,228 @@
+"""Turbulence from its statistics (workbench.diagnosis.turbulence): the
+tracker noise and the excess band power on a synthetic record whose drogue
+motion is a known random process, sigma and its error on synthetic ensembles,
+the model's response linear in sigma, the steady floor's rule, and sigma on
+proving-ground logs (independent physics, known truth)."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy.signal import lfilter
+
+from flighttest.residual import rms
+from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.setup import NOISE_FACTOR, Setup
+from workbench.diagnosis.turbulence import (MAD_REL_SD, N_SEEDS, SIGMA_REF_MPS, RandomEffect, SigmaEstimate,
+                                            _at_fixes, _run, estimate_sigma, log_statistics, statistics_of,
+                                            tracker_noise)
+
+FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
+NOISE_SD = np.array([0.025, 0.012, 0.012])     # m, a tracker noisier along its line of sight (x)
+GAIN = np.array([0.05, 0.12, 0.10])             # m of drogue motion per m/s of sigma, per axis
+HZ, T, TAU = 30.0, 40.0, 0.6                    # tracker rate, record length, the process's time constant
+
+
+def _lagged(x):
+    """`x` through two first-order lags of TAU (a drogue's low-pass)."""
+    a = math.exp(-1.0 / (HZ * TAU))
+    return lfilter([1.0 - a], [1.0, -a], lfilter([1.0 - a], [1.0, -a], x, axis=0), axis=0)
+
+
+# the stationary sd of unit white noise through the two lags: impulse response
+# (1-a)^2 (k+1) a^k, whose sum of squares is (1-a)^4 (1+a^2) / (1-a^2)^3
+_A = math.exp(-1.0 / (HZ * TAU))
+PROCESS_SD = math.sqrt((1 - _A) ** 4 * (1 + _A ** 2) / (1 - _A ** 2) ** 3)
+
+
+def _process(rng, n):
+    """A smooth random drogue motion of unit variance per axis: white noise
+    through the two lags, started in its stationary state (a long lead-in)."""
+    lead = int(20 * TAU * HZ)
+    return _lagged(rng.normal(size=(n + lead, 3)))[lead:] / PROCESS_SD
+
+
+def _record(rng, sigma, n_members=N_SEEDS):
+    """Fixes at 30 Hz with 3 % dropouts and a 1 s burst out of view: the log
+    (sigma's motion plus white noise), the members (SIGMA_REF_MPS's motion)
+    and the log's clean motion."""
+    t_all = np.arange(0.0, T, 1.0 / HZ)
+    keep = rng.random(len(t_all)) > 0.03
+    keep[300:330] = False
+    t = t_all[keep]
+    clean = sigma * GAIN * _process(rng, len(t_all))[keep]
+    xyz = clean + rng.normal(size=clean.shape) * NOISE_SD
+    members = [SIGMA_REF_MPS * GAIN * _process(rng, len(t_all))[keep] for _ in range(n_members)]
+    return t, xyz, members, clean
+
+
+def _stats(t, xyz, members):
+    zero = np.zeros_like(xyz)
+    return statistics_of("synthetic", t, xyz, zero, members, np.zeros((len(members), 4)), np.zeros(4, int))
+
+
+def test_tracker_noise_is_recovered_from_the_log_within_its_error():
+    rng = np.random.default_rng(7)
+    t, xyz, _, _ = _record(rng, 1.0, 0)
+    sd, n = tracker_noise(t, xyz)
+    # the MAD estimate's standard error, 3 of them; the motion (below 2 Hz)
+    # adds to the second difference far less than that
+    assert_allclose(sd, NOISE_SD, rtol=3 * MAD_REL_SD / math.sqrt(n))
+
+
+def test_excess_band_power_is_the_clean_motion_s_within_its_stated_error():
+    rng = np.random.default_rng(8)
+    t, xyz, members, clean = _record(rng, 0.6)
+    st = _stats(t, xyz, members)
+    e, noise, var = st.excess()
+    clean_power = _stats(t, clean, members).d
+    # the noise removed is the analytic white noise left in the bins
+    assert noise > 0
+    assert_allclose(e, float(np.sum(clean_power ** 2)), atol=3 * math.sqrt(var))
+
+
+def test_sigma_hat_and_its_standard_error_are_calibrated_over_realisations():
+    rng = np.random.default_rng(9)
+    z = []
+    for _ in range(40):
+        t, xyz, members, _ = _record(rng, 0.8)
+        est = estimate_sigma([_stats(t, xyz, members)])
+        assert est.real
+        z.append((est.sigma_mps - 0.8) / est.stderr_mps)
+    z = np.array(z)
+    # 40 realisations: the mean z-score's sd is 1/sqrt(40) = 0.16 (3 of them),
+    # the RMS z's about 0.11 (bounds ~3.5 of them about 1)
+    assert abs(z.mean()) < 0.5
+    assert 0.6 < rms(z) < 1.4
+
+
+def test_noise_alone_names_no_turbulence():
+    rng = np.random.default_rng(10)
+    t, xyz, members, _ = _record(rng, 0.0)
+    est = estimate_sigma([_stats(t, xyz, members)])
+    assert not est.real and est.why
+
+
+def test_segments_pool_to_the_whole_record():
+    rng = np.random.default_rng(11)
+    t, xyz, members, _ = _record(rng, 0.5)
+    st = _stats(t, xyz, members)
+    assert_allclose(st.excess(0)[0] + st.excess(1)[0], st.excess()[0], rtol=1e-12)
+    assert_allclose(st.unit_powers(0) + st.unit_powers(1), st.unit_powers(), rtol=1e-12)
+
+
+@pytest.mark.parametrize("log", ["TR-KDC10-E7", "PD-G3-1", "EN-KDC10-E7"])
+def test_the_model_s_drogue_response_is_linear_in_sigma(log):
+    path = str(FLIGHT / f"{log}.mcap")
+    setup = Setup()
+    t = np.linspace(1.0, 20.0, 200)
+    y0 = _at_fixes(_run(path, {}, setup), t)
+    r = {s: _at_fixes(_run(path, {"turbulence": {"sigma_mps": s, "length_scale_m": 533.4, "seed": 5}}, setup), t) - y0
+         for s in (0.25, 0.5, 1.0)}
+    departure = {s: rms(r[s] - 2.0 * r[s / 2]) / rms(r[s]) for s in (0.5, 1.0)}
+    # quadratic drag departs from linear by about sigma / U: a few per cent at
+    # 1 m/s (the doublet's large motion included); 5 % would bias sigma^2 by 10 %
+    assert departure[1.0] < 0.05
+    # ... and the departure is second order: it halves with sigma (0.5; 0.6 leaves the third order room)
+    assert departure[0.5] < 0.6 * departure[1.0]
+
+
+def _cand(effect, gap_before, gap_heldout, score):
+    return Candidate(effect, [effect], 1, gap_before=gap_before, gap_after_heldout=gap_heldout, score=score)
+
+
+def test_a_steady_effect_within_the_turbulence_s_chance_offset_is_not_credited():
+    turb = _cand("turbulence", 0.10, 0.09, 0.095)
+    small = _cand("steady_wind", 0.10, 0.08, 0.084)     # gain 0.06 m
+    large = _cand("drogue_lift", 0.10, 0.02, 0.021)     # gain 0.098 m
+    floor = 0.04                                        # NOISE_FACTOR x 0.04 = 0.08 m
+    real = SigmaEstimate(1.0, 0.1, 0.1, 0.01, True, "")
+    ranked = RandomEffect(turb, real, floor).credit_steady(sorted([turb, small, large], key=lambda c: c.score))
+    assert [c.effect for c in ranked] == ["drogue_lift", "turbulence", "steady_wind"]
+    assert "by chance" in small.why_not_first and large.why_not_first is None
+    assert NOISE_FACTOR * floor > math.sqrt(0.10 ** 2 - 0.08 ** 2)
+    # no real turbulence: nothing moves
+    small.score = 0.084
+    unreal = SigmaEstimate(0.1, 0.1, 0.0, 0.01, False, "within noise")
+    ranked = RandomEffect(turb, unreal, floor).credit_steady(sorted([turb, small, large], key=lambda c: c.score))
+    assert [c.effect for c in ranked] == ["drogue_lift", "steady_wind", "turbulence"]
+
+
+def _generated(tmp_path, kind, effects, seed):
+    from workbench.proving.generate import generate
+    path, truth = generate(kind, effects, seed, tmp_path)
+    return str(path), truth
+
+
+def test_sigma_on_a_proving_ground_trail_with_turbulence_and_one_without(tmp_path):
+    path, truth = _generated(tmp_path, "trail", ["turbulence"], 12)
+    est = estimate_sigma([log_statistics((path, {}, Setup(), 1))])
+    assert est.real
+    assert abs(est.sigma_mps - truth["params"]["turbulence"]["sigma_mps"]) <= 2 * est.stderr_mps
+    # a steady wind: the random motion is the log's light nuisance turbulence, and only that
+    path, truth = _generated(tmp_path, "trail", ["steady_wind"], 11)
+    est = estimate_sigma([log_statistics((path, {}, Setup(), 1))])
+    assert abs(est.sigma_mps - truth["nuisance_turbulence"]["sigma_mps"]) <= 2 * est.stderr_mps
+
+
+@pytest.mark.slow
+def test_the_diagnosis_ranks_turbulence_first_on_a_turbulent_doublet_and_not_on_a_steady_wind_trail(tmp_path):
+    from workbench.diagnosis.rank import diagnose_family
+    from workbench.parallel import Mapper
+    path, truth = _generated(tmp_path, "pitch_doublet", ["turbulence"], 11)
+    with Mapper(2) as mapper:
+        d = diagnose_family([path], Setup(), mapper)
+    top = d.ranking[0]
+    assert top.effect == "turbulence"
+    assert abs(top.params["turbulence"]["sigma_mps"] - truth["params"]["turbulence"]["sigma_mps"]) \
+        <= 2 * top.param_stderr["turbulence"]["sigma_mps"]
+    assert "turbulence" not in d.not_applicable
+    path, truth = _generated(tmp_path, "trail", ["steady_wind"], 11)
+    with Mapper(2) as mapper:
+        d = diagnose_family([path], Setup(), mapper)
+    assert d.ranking[0].effect == "steady_wind"
+    assert [c.effect for c in d.ranking].index("turbulence") > 0
+
+
+class _Base:
+    """A baseline residual: components `r` with their noise `floor` and segments."""
+
+    def __init__(self, r, floor, segment):
+        self.r, self.floor, self.segment = np.asarray(r, float), np.asarray(floor, float), np.asarray(segment)
+
+
+def _family(rng, sigma, g=0.1):
+    """One synthetic log's statistics with four gap components (two per
+    segment) whose members shift them by 0.05 m per m/s, and a baseline of
+    components `g` with a 0.005 m noise floor."""
+    t, xyz, members, _ = _record(rng, sigma)
+    seg = np.array([0, 1, 0, 1])
+    shift = 0.05 * np.array([[1, -1, 1, -1]] * len(members)) * rng.choice([-1.0, 1.0], (len(members), 1))
+    st = statistics_of("synthetic", t, xyz, np.zeros_like(xyz), members, SIGMA_REF_MPS * shift, seg)
+    return st, {"synthetic": _Base([g, -g, g, g], [0.005] * 4, seg)}
+
+
+def test_held_out_gap_removes_the_random_mean_square_sigma_predicts_and_nothing_unless_real():
+    from workbench.diagnosis.fit import TimeBlocks
+    from workbench.diagnosis.turbulence import turbulence_candidate
+    rng = np.random.default_rng(12)
+    st, base = _family(rng, 0.8)
+    folds = list(TimeBlocks(2.0).split(["synthetic"]))
+    c, est = turbulence_candidate([st], base, folds)
+    held = []
+    for fold, row in zip(folds, c.folds):
+        s2 = estimate_sigma([st], [(0, fold.train[0][1])]).sigma_mps ** 2
+        # each held-out component's mean square 0.1^2, the random share sigma^2 0.05^2
+        held.append(math.sqrt(max(0.1 ** 2 - s2 * 0.05 ** 2, 0.005 ** 2)))
+        assert_allclose(row["gap_heldout"], held[-1], rtol=1e-12)
+    assert_allclose(c.gap_after_heldout, rms(held), rtol=1e-12)
+    assert c.params["turbulence"]["sigma_mps"] == est.sigma_mps and est.real
+    # noise alone: it explains nothing, the held-out gap is the baseline's
+    st, base = _family(rng, 0.0)
+    c, est = turbulence_candidate([st], base, folds)
+    assert not est.real
+    assert_allclose(c.gap_after_heldout, 0.1, rtol=1e-12)
+    assert "no random motion" in c.why_not_first
