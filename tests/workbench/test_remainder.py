@@ -61,3 +61,24 @@ def test_a_varying_remainder_is_said_against_the_noise():
     assert rem["drogue x"]["per_log"]["L0"]["varying_real"]
     assert_allclose(rem["drogue x"]["varying_m"], 0.1 / np.sqrt(2), rtol=0.05)   # sine RMS, 0.005 scatter
     assert sentences(rem, "none")[0].startswith("drogue x: 0.07")
+
+
+def test_the_remainder_reaches_the_findings_the_json_and_the_report():
+    from workbench.diagnosis.findings import findings
+    from workbench.diagnosis.report import _remainder_blocks
+    from workbench.diagnosis.result import Candidate, FamilyDiagnosis
+    rng = np.random.default_rng(6)
+    rem = remainder({f"L{i}": _residual(rng, -0.2) for i in range(2)})
+    none = Candidate("none", [], 0, gap_before=0.2, gap_after_heldout=0.2, shrink_heldout=0.0, score=0.2,
+                     why="no effect earns its place")
+    d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["L0", "L1"], n_elements=20,
+                        gap_definition="", gap_before=0.2, noise_floor=0.01, gap_real=True, held_out_scheme="",
+                        screen={}, screened_out=[], not_applicable={}, ranking=[none], failed=[],
+                        remaining_unexplained={"gap_m": 0.2, "above_noise_m": 0.2}, gap={}, gap_after_best={},
+                        wall_s=0.0, remainder=rem)
+    said = findings(d)
+    assert any(s.startswith("drogue x: -0.200 m steady in every log") and "the baseline in" in s for s in said)
+    assert d.to_json()["remainder"]["drogue x"]["common"] is True
+    (table,) = _remainder_blocks(d.to_json())
+    assert [r[0].text for r in table.rows][:3] == ["drogue x", "drogue y", "drogue z"]
+    assert table.rows[0][4].text.startswith("model form")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver.effects import EFFECTS
+from workbench.diagnosis.remainder import sentences
 from workbench.diagnosis.result import FamilyDiagnosis
 
 
@@ -58,7 +59,7 @@ def findings(d: FamilyDiagnosis) -> list[str]:
     if top.effect == "none":
         out.append(head + f" No effect needed: {top.why or ''}" + _probability(top) + ".")
         out += _plausibility(d)
-        return out
+        return out + sentences(d.remainder, "the baseline")
     p, se = top.params, top.param_stderr
     ptxt = ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}{_bound_note(e, k, v)}"
                      for e, dd in p.items() for k, v in dd.items())
@@ -83,6 +84,7 @@ def findings(d: FamilyDiagnosis) -> list[str]:
                    + ", ".join(f"{p['phase']} {p['gap_m']:.3f} m" for p in real[:3])
                    + (" and in " + ", ".join(f"{k} {v['gap_m']:.3f} m" for k, v in chans[:2]) if chans else "")
                    + ".")
+    out += sentences(d.remainder, top.effect)
     folds = top.folds or []
     if len(d.logs) > 1 and folds:
         per = ", ".join(f"{f['held_out']} {f['gap_heldout']:.3f} m" for f in folds)

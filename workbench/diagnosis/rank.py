@@ -38,6 +38,7 @@ from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
+from workbench.diagnosis.remainder import remainder
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, forward_select, with_random
@@ -208,8 +209,9 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # explain; a random effect has no realisation to simulate
     after = {}
     det = {e: v for e, v in ranking[0].params.items() if e != "turbulence"}
+    left = {Path(p).stem: evaluate(p, det, setup) for p in paths}
     if det:
-        after = {Path(p).stem: where_map(observed(p), evaluate(p, det, setup)) for p in paths}
+        after = {Path(p).stem: where_map(observed(p), R) for p, R in zip(paths, left.values())}
     return FamilyDiagnosis(
         family=family_of(recs[paths[0]]), kind=kind, logs=[Path(p).stem for p in paths],
         n_elements=setup.n_elements, gap_definition=GAP_DEFINITION[kind], gap_before=gap_before,
@@ -219,7 +221,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         ranking=ranking, failed=failed, selection=sel.to_json(),
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
-        gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m)
+        gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m,
+        remainder=remainder(left))
 
 
 def group_families(paths) -> dict[str, list[str]]:

@@ -111,6 +111,22 @@ def _selection_blocks(d: dict) -> list:
             Para(f"Selected: {esc(' + '.join(sel['effects']) or 'none')}; stopped: {esc(sel['stopped'])}.")]
 
 
+def _remainder_blocks(d: dict) -> list:
+    """What the best explanation leaves, per channel (and hose station where a
+    steady part is common to every log): steady and varying parts against the
+    noise floor, and whether it is model form. A diagnosis.json written before
+    the remainder was reported has none."""
+    rem = d.get("remainder")
+    if not rem:
+        return []
+    entries = [(k, v) for k, v in rem.items() if k != "hose stations"]
+    entries += [(f"hose at {k}", v) for k, v in rem.get("hose stations", {}).items() if v["common"]]
+    rows = [[Cell(esc(k)), v["steady_m"], v["varying_m"], v["floor_m"],
+             Cell("model form: the same in every log" if v["common"] else "–")] for k, v in entries]
+    return [Table(["where", "steady, mean over the logs (m)", "varying (m)", "noise floor (m)", "verdict"], rows,
+                  [24, 16, 12, 12, 30], title="What the best explanation leaves")]
+
+
 def _heat(ax, values, rows, cols, title, annotate, vmax=None):
     """A heat map of gap / noise floor (log colour scale up to `vmax`, default
     the largest value), each cell annotated."""
@@ -391,6 +407,7 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                                                              for c in d["failed"]) + "."))
         out.append(Para(f"Remaining after the best: {fmt(d['remaining_unexplained']['gap_m'])} m, of which "
                         f"{fmt(d['remaining_unexplained']['above_noise_m'])} m above the noise floor."))
+        out += _remainder_blocks(d)
         out.append(Table(["effect", "screen share", "or why not calibrated"],
                          [[Cell(esc(k)), v, Cell("–")] for k, v in d["screen"].items()]
                          + [[Cell(esc(k)), None, Cell(esc(v), "small")] for k, v in d["not_applicable"].items()],

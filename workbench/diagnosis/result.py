@@ -108,6 +108,7 @@ class FamilyDiagnosis:
     wall_s: float
     selection: dict = dataclasses.field(default_factory=dict)
     steady_floor_m: float = 0.0   # the offset turbulence of sigma_hat leaves by chance (`turbulence.steady_floor`)
+    remainder: dict = dataclasses.field(default_factory=dict)   # what the best leaves (`remainder.remainder`)
 
     @property
     def success(self) -> bool:
