@@ -14,6 +14,8 @@ Modules by concern, data flowing down the list:
   `TimeBlocks`).
 * `screen`: each effect's sensitivity directions and the share of the
   residual they span.
+* `identify`: which screened effects the logs cannot tell apart (principal
+  angles between their noise-weighted sensitivity patterns).
 * `rank`: one family's diagnosis and the `diagnose` of many logs.
 * `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
 * `findings`: the diagnosis in words.

@@ -75,7 +75,8 @@ def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
     phys = {k: v for k, v in effects.items() if not EFFECTS[k].comparison_only}
     delay = float(effects.get("sensor_lag", {}).get("delay_s", 0.0))
     try:
-        return residual(observed(path), _simulate_frozen(path, _freeze(phys), setup), delay_s=delay)
+        return residual(observed(path), _simulate_frozen(path, _freeze(phys), setup), delay_s=delay,
+                        signatures=setup.signatures)
     except InputError:
         raise
     except SIM_FAILURES as exc:

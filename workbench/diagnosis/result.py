@@ -96,6 +96,8 @@ class FamilyDiagnosis:
     gap: dict                     # where-map per log, baseline
     gap_after_best: dict          # where-map per log with the best explanation
     wall_s: float
+    # pairs of screened effects these logs cannot tell apart: {"effects": [a, b], "cosine"} (`identify`)
+    not_separable: list = dataclasses.field(default_factory=list)
 
     @property
     def success(self) -> bool:

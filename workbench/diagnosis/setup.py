@@ -109,11 +109,15 @@ class Setup:
     """What a diagnosis simulates a log with: the kind's template with the
     log's hardware ids (`case_path` None), or one case file with a variant's
     model overrides (a validation variant calibrated on its training logs);
-    `n_elements` None keeps the case's own."""
+    `n_elements` None keeps the case's own. `signatures`: the residual with
+    its signature components (`flighttest.signatures`), which tell effects
+    apart; a validation variant's calibration leaves them out, its gates
+    being set on the comparison's own components."""
 
     n_elements: int | None = DEFAULT_ELEMENTS
     case_path: str | None = None
     overrides: tuple = ()
+    signatures: bool = True
 
     def case_for(self, rec: FlightRecord) -> Case:
         if self.case_path is None:
