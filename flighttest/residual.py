@@ -414,9 +414,12 @@ def _signatures(ob: Observation, sim: FlightRecord, lines, delay_s: float, parts
     sig = ob.signatures
     if not (sig.phase or sig.bow or sig.curve):
         return
-    sd = sim.tracker_fixes()
-    tow = sim.topic("/tanker/tow_point")
-    for r, fl, station, t, seg, band in S.components(
-            sig, ob.fix_t, sd.index.to_numpy(float), sd[["x_m", "y_m", "z_m"]].to_numpy(float),
-            (tow.index.to_numpy(float), tow["z_m"].to_numpy(float)), lines, delay_s, segment_of):
+    sim_t = sim_xyz = tow = None
+    if sig.phase or sig.bow:
+        sd = sim.tracker_fixes()
+        sim_t, sim_xyz = sd.index.to_numpy(float), sd[["x_m", "y_m", "z_m"]].to_numpy(float)
+    if sig.phase:
+        tw = sim.topic("/tanker/tow_point")
+        tow = (tw.index.to_numpy(float), tw["z_m"].to_numpy(float))
+    for r, fl, station, t, seg, band in S.components(sig, ob.fix_t, sim_t, sim_xyz, tow, lines, delay_s, segment_of):
         parts.add(np.array([r]), fl, S.CHANNEL, station, t, seg, band)

@@ -23,7 +23,7 @@ prescribes the logged payout (`[model] reel = "from_log"`), so the simulated
 reel is the log's own and the feature would be zero whatever the effects.
 
 Noise floors are the log's own scatter: the tracker's and tow point's
-sample-to-sample scatter (std of first differences / sqrt 2) through the
+sample-to-sample scatter (std of second differences / sqrt 6) through the
 least-squares phase fit; the spread about each window's mean over sqrt(n);
 the mean shape's spread per bin over sqrt(n), through the second difference.
 The log side is measured once (`measure`); `components` adds the simulated
@@ -44,10 +44,12 @@ CURVE_STRIDE_M = 5.0          # m, the second difference's stride along x (five 
 
 
 def scatter(y) -> float:
-    """The sample-to-sample scatter of a series: std of its first differences
-    over sqrt 2 (white noise of that std; slow motion hardly contributes)."""
+    """The sample-to-sample scatter of a series: the std of its second
+    differences over sqrt 6, i.e. that of white noise (motion slow against the
+    sampling leaves A (w dt)^2 in a second difference, which first differences
+    would keep at A w dt)."""
     y = np.asarray(y, float)
-    return float(np.std(np.diff(y)) / math.sqrt(2.0)) if len(y) > 2 else 0.0
+    return float(np.std(np.diff(y, 2)) / math.sqrt(6.0)) if len(y) > 3 else 0.0
 
 
 def phasor(t, y, f_hz: float, sigma: float) -> tuple[float, float, float]:
@@ -168,7 +170,7 @@ def components(sig: LogSignatures, fix_t, sim_t, sim_xyz, sim_tow, sim_lines, de
     `delay_s` the tracker latency applied to the simulated side (a fix
     stamped t shows the drogue at t - delay_s)."""
     out = []
-    st = sim_t + delay_s
+    st = None if sim_t is None else sim_t + delay_s
     for seg, t0, t1, f, A, phi, fl in sig.phase:
         m = (st >= t0) & (st <= t1) & (seg_of(st) == seg)
         mr = (sim_tow[0] >= t0) & (sim_tow[0] <= t1) & (seg_of(sim_tow[0]) == seg)
