@@ -23,6 +23,12 @@ Components, by test kind:
   normal distances of every video point from the simulated hose of the same
   frame, averaged per `VIDEO_WINDOW_S` window and `STATION_M` station.
 
+* every kind, after those (unless `signatures=False`): the signature
+  components (`flighttest.signatures`, channel "signature"): the tracker's
+  phase against the tow point, the drogue's growth before contact, the hose's
+  curvature along a trail; each in metres, with its band naming the feature.
+  Validation's metrics do not use them.
+
 A component's noise floor is what the averaging leaves of the log's own
 scatter: its spread about the average over sqrt(samples averaged).
 

@@ -24,7 +24,9 @@ reel is the log's own and the feature would be zero whatever the effects.
 
 Noise floors are the log's own scatter: the tracker's and tow point's
 sample-to-sample scatter (std of second differences / sqrt 6) through the
-least-squares phase fit; the spread about each window's mean over sqrt(n);
+least-squares phase fit (the phase's error times the amplitude: the error of
+a phase difference near zero; a difference dphi adds the amplitude's
+relative error, as large, times dphi); the spread about each window's mean over sqrt(n);
 the mean shape's spread per bin over sqrt(n), through the second difference.
 The log side is measured once (`measure`); `components` adds the simulated
 side. A record against itself gives zero components.

@@ -34,11 +34,15 @@ PAIR_GAIN = 0.25        # a pair ranks above its members only if it shrinks thei
 
 GAP_DEFINITION = {
     "pitch_doublet": "RMS over 0.25 s bins (2 s before the doublet to the end) of the tracker's drogue x, y, z "
-                     "minus the simulation's, m",
+                     "minus the simulation's, with the signature components (the tracker's phase against the tow "
+                     "point at the drogue's fundamental, times its amplitude), m",
     "trail": "RMS of the signed normal distances of the video hose's mean shape (1 m bins) from the simulated "
-             "static hose, together with the median drogue x, y, z residuals, m",
+             "static hose, together with the median drogue x, y, z residuals and the signature components (the "
+             "mean shape's second difference over 5 m), m",
     "engagement": "RMS of the video hose points' normal distances from the simulated hose, averaged per 1 s and "
-                  "3 m station, together with the drogue x, y, z residuals in 0.25 s bins, m",
+                  "3 m station, together with the drogue x, y, z residuals in 0.25 s bins and the signature "
+                  "components (the tracker's phase against the tow point; the drogue's y, z growth over the 2 s "
+                  "before contact), m",
 }
 
 
