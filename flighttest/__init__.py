@@ -11,7 +11,8 @@ logs) over `container` (MCAP walk), `messages` (message checks, shared with
 `writer`) and `plausibility` (what the values show together), `writer`,
 `metrics` (measurements on arrays, by concern), `analyze` (one record on its
 own), `residual` (the one comparison of a log with a simulated record:
-components tagged by channel, station, phase, segment and band), `compare`
+components tagged by channel, station, phase, segment and band; its
+signature components of timing and shape in `signatures`), `compare`
 (validation's metrics from it, with the residual, as a `Comparison`).  Modules import each other by
 name (`from .schema import ...`), never through this package, so importing
 any of them cannot loop back here.

@@ -23,6 +23,12 @@ Components, by test kind:
   normal distances of every video point from the simulated hose of the same
   frame, averaged per `VIDEO_WINDOW_S` window and `STATION_M` station.
 
+* every kind, after those (unless `signatures=False`): the signature
+  components (`flighttest.signatures`, channel "signature"): the tracker's
+  phase against the tow point, the drogue's growth before contact, the hose's
+  curvature along a trail; each in metres, with its band naming the feature.
+  Validation's metrics do not use them.
+
 A component's noise floor is what the averaging leaves of the log's own
 scatter: its spread about the average over sqrt(samples averaged).
 
@@ -42,6 +48,7 @@ import pandas as pd
 from scipy import signal
 
 from . import metrics as M
+from . import signatures as S
 from .analyze import analyze_record
 from .record import FlightRecord
 
@@ -149,6 +156,8 @@ class Observation:
     fundamental_hz: float
     video: tuple | None = None      # (t, x, z) of every video point
     analysis: dict = dataclasses.field(default_factory=dict)
+    shapes: tuple | None = None     # trail: the video hose's mean shape per segment
+    signatures: S.LogSignatures = S.LogSignatures()
 
 
 def observe(log: FlightRecord) -> Observation:
@@ -159,14 +168,20 @@ def observe(log: FlightRecord) -> Observation:
     t = fixes.index.to_numpy(float)
     xyz = fixes[["x_m", "y_m", "z_m"]].to_numpy(float)
     t0 = max(a["doublet_start_s"] - 2.0, t[0]) if kind == "pitch_doublet" else t[0]
-    video = None
+    video = shapes = seg_times = None
     if kind in ("trail", "engagement"):
         h = log.topic("/video/hose")
         tv, xv, zv = (h[c].to_numpy(float) for c in ("t_s", "x_m", "z_m"))
         ok = np.isfinite(tv) & np.isfinite(xv) & np.isfinite(zv)
         video = (tv[ok], xv[ok], zv[ok])
+    if kind == "trail":
+        sel = [segment_of(video[0]) == seg for seg in (0, 1)]
+        shapes = tuple(M.mean_shape(video[1][s], video[2][s], bin_m=SHAPE_BIN_M) for s in sel)
+        seg_times = [float(np.median(video[0][s])) for s in sel]
+    f = _fundamental(t, xyz[:, 2], a)
+    sig = S.measure(log, kind, t, xyz, t0, f, segment_of, shapes, seg_times)
     return Observation(str(log.path), log.info.test_id, kind, t, xyz, np.arange(t0, t[-1] + 1e-9, BIN_S),
-                       test_phases(log, a), _fundamental(t, xyz[:, 2], a), video, a)
+                       test_phases(log, a), f, video, a, shapes, sig)
 
 
 # ---- the residual ------------------------------------------------------------------------
@@ -305,11 +320,12 @@ def _trail(ob: Observation, sim: FlightRecord, fixes: np.ndarray, parts: _Parts)
     times, lines = _frames(sim)
     sd = sim.tracker_fixes()
     sd_t, sd_xyz = sd.index.to_numpy(float), sd[["x_m", "y_m", "z_m"]].to_numpy(float)
-    rows, drogue = [], np.full_like(ob.fix_xyz, np.nan)
+    rows, drogue, seg_lines = [], np.full_like(ob.fix_xyz, np.nan), []
     for seg in (0, 1):
         sel = segment_of(tv) == seg
         line = _mean_line(times, lines, seg)
-        shp = M.mean_shape(xv[sel], zv[sel], bin_m=SHAPE_BIN_M)
+        seg_lines.append(line)
+        shp = ob.shapes[seg]
         x, z = shp["x_m"].to_numpy(float), shp["z_m"].to_numpy(float)
         e, station, inside, _, _ = M.project_onto_polyline(np.column_stack([x, z]), line)
         n = np.maximum(shp["n"].to_numpy(float), 1.0)
@@ -325,7 +341,7 @@ def _trail(ob: Observation, sim: FlightRecord, fixes: np.ndarray, parts: _Parts)
         drogue[so] = d
         parts.add(np.median(d, axis=0), np.std(fixes[so], axis=0) / math.sqrt(max(so.sum(), 1)),
                   np.array(DROGUE), np.nan, float(np.median(ob.fix_t[so])), seg, "steady")
-    return drogue, pd.concat(rows, ignore_index=True)
+    return drogue, pd.concat(rows, ignore_index=True), seg_lines
 
 
 def _drogue_bins(ob: Observation, sim: FlightRecord, fixes: np.ndarray, delay_s: float, parts: _Parts):
@@ -377,22 +393,42 @@ def _engagement_hose(ob: Observation, sim: FlightRecord, parts: _Parts) -> pd.Da
 
 
 def residual(log: FlightRecord | Observation, sim: FlightRecord, *, delay_s: float = 0.0,
-             tracker_offset_m: float = 0.0) -> Residual:
+             tracker_offset_m: float = 0.0, signatures: bool = True) -> Residual:
     """Log minus `sim` (a record in the log contract), component by component;
     `log` may be its `observe`d form, measured once for many simulations.
     `delay_s`: the tracker's latency, applied to the log's fix times (doublet
     and engagement drogue channels). `tracker_offset_m`: how far aft (x) of the
-    simulated drogue point the tracked point lies, taken off the log's fixes."""
+    simulated drogue point the tracked point lies, taken off the log's fixes.
+    `signatures`: with the signature components (`flighttest.signatures`,
+    channel "signature") after the others."""
     ob = log if isinstance(log, Observation) else observe(log)
     parts = _Parts()
-    hose = None
+    hose = lines = None
     fixes = ob.fix_xyz - np.array([tracker_offset_m, 0.0, 0.0]) if tracker_offset_m else ob.fix_xyz
     if ob.kind == "trail":
-        d, hose = _trail(ob, sim, fixes, parts)
+        d, hose, lines = _trail(ob, sim, fixes, parts)
     elif ob.kind in ("pitch_doublet", "engagement"):
         d = _drogue_bins(ob, sim, fixes, delay_s, parts)
         if ob.kind == "engagement":
             hose = _engagement_hose(ob, sim, parts)
     else:
         raise ValueError(f"{ob.path}: no residual for test kind {ob.kind!r}")
+    if signatures:
+        _signatures(ob, sim, lines, delay_s, parts)
     return parts.done(ob, (ob.fix_t, d), hose)
+
+
+def _signatures(ob: Observation, sim: FlightRecord, lines, delay_s: float, parts: _Parts):
+    """The signature components of `sim` against the log's, measured at `observe`."""
+    sig = ob.signatures
+    if not (sig.phase or sig.bow or sig.curve):
+        return
+    sim_t = sim_xyz = tow = None
+    if sig.phase or sig.bow:
+        sd = sim.tracker_fixes()
+        sim_t, sim_xyz = sd.index.to_numpy(float), sd[["x_m", "y_m", "z_m"]].to_numpy(float)
+    if sig.phase:
+        tw = sim.topic("/tanker/tow_point")
+        tow = (tw.index.to_numpy(float), tw["z_m"].to_numpy(float))
+    for r, fl, station, t, seg, band in S.components(sig, ob.fix_t, sim_t, sim_xyz, tow, lines, delay_s, segment_of):
+        parts.add(np.array([r]), fl, S.CHANNEL, station, t, seg, band)

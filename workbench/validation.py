@@ -414,9 +414,10 @@ def validate_cases(case_paths: list[Path], workers: int | None = None, progress:
 def calibrate_variant(case: Case, v: dict, paths: list[str]) -> dict:
     """A variant's `calibrate` effects fitted on its training logs (`paths`)
     with the case's own model and the variant's overrides: the diagnosis's
-    calibrator on all components of those logs. {"effects": {name: {param:
+    calibrator on the comparison's components of those logs (not the
+    signature components: the gates were set on these). {"effects": {name: {param:
     value}}, "stderr": {...}, "gap_before", "gap_train" (m), "on": test ids}."""
-    setup = Setup(None, str(case.path), tuple(sorted(_overrides(v, {}).items())))
+    setup = Setup(None, str(case.path), tuple(sorted(_overrides(v, {}).items())), signatures=False)
     cal = EffectCalibrator(v["calibrate"], setup).fit(paths)
     return {"effects": cal.params_, "stderr": cal.stderr_, "gap_train": cal.gap_train_,
             "gap_before": cal.gap_before_, "on": [Path(p).stem for p in paths]}

@@ -148,7 +148,9 @@ def test_an_effect_whose_screen_probe_diverges_is_reported_and_not_scored(monkey
     monkeypatch.setattr(E, "_simulate_frozen", diverging)
     path = str(FLIGHT / "TR-KDC10-E7.mcap")
     base = {path: E.evaluate(path, {}, D.Setup())}
-    scores, failed = screen_scores([path], ["drogue_lift", "hose_drag"], D.Setup(), base,
-                                   Mapper(workers=1))
+    scores, failed, columns = screen_scores([path], ["drogue_lift", "hose_drag"], D.Setup(), base,
+                                            Mapper(workers=1))
     assert set(scores) == {"hose_drag"} and 0.0 < scores["hose_drag"] <= 1.0
+    # the sensitivity columns kept for identifiability: one row per residual component
+    assert set(columns) == {"hose_drag"} and columns["hose_drag"].shape[0] == len(base[path].r)
     assert set(failed) == {"drogue_lift"} and reason in failed["drogue_lift"]

@@ -15,12 +15,13 @@ FLOOR = 0.01   # m, every component's noise floor
 
 def _residual(rng, dx, hose=(0.0, 0.0), n=120):
     """Drogue x, y, z components (0.005 m scatter) with drogue x offset by `dx`,
-    and hose components at stations 0-6 m offset by hose[0], 6-12 m by hose[1]."""
+    and hose components at stations -1-6 m offset by hose[0], 6-12 m by hose[1]
+    (a video point just forward of the tow point has a negative station)."""
     ch = np.repeat(["drogue x", "drogue y", "drogue z"], n)
     r = rng.normal(0.0, 0.005, 3 * n)
     r[:n] += dx
     st = np.full(3 * n, np.nan)
-    hs = np.linspace(0.0, 11.9, 40)
+    hs = np.linspace(-1.0, 11.9, 40)
     hr = rng.normal(0.0, 0.005, 40) + np.where(hs < 6.0, hose[0], hose[1])
     ch = np.concatenate([ch, np.full(40, "hose")])
     r, st = np.concatenate([r, hr]), np.concatenate([st, hs])
@@ -38,11 +39,12 @@ def test_a_steady_offset_in_every_log_is_model_form():
     assert_allclose(rem["drogue x"]["steady_m"], -0.19, atol=0.002)
     assert not rem["drogue y"]["common"] and not rem["drogue z"]["common"]
     # the hose's offset lies aft of 6 m only
-    assert rem["hose stations"]["6-9 m"]["common"] and rem["hose stations"]["9-12 m"]["common"]
-    assert not rem["hose stations"]["0-3 m"]["common"]
+    assert rem["hose stations"]["6 to 9 m"]["common"] and rem["hose stations"]["9 to 12 m"]["common"]
+    assert not rem["hose stations"]["0 to 3 m"]["common"]
     said = sentences(rem, "drogue_lift")
     assert said[0].startswith("drogue x: -0.190 m steady in every log")
-    assert any(s.startswith("hose at 6-9 m") for s in said)
+    assert any(s.startswith("hose at 6 to 9 m") for s in said)
+    assert list(rem["hose stations"])[0] == "-3 to 0 m"
 
 
 @pytest.mark.parametrize("offsets", [(-0.2, 0.2, -0.2), (-0.2, -0.02, -0.2), (-0.2,)])

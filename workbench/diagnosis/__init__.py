@@ -14,6 +14,8 @@ Modules by concern, data flowing down the list:
   `TimeBlocks`).
 * `screen`: each effect's sensitivity directions and the share of the
   residual they span.
+* `identify`: which screened effects the logs cannot tell apart (principal
+  angles between their noise-weighted sensitivity patterns).
 * `select`: forward selection of several effects at once (warm-started
   fits, the acceptance rule, each selected effect's share of the gap).
 * `turbulence`: turbulence from its statistics (the drogue's random motion

@@ -77,7 +77,7 @@ def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
     offset = float(effects.get("drogue_reference", {}).get("offset_m", 0.0))
     try:
         return residual(observed(path), _simulate_frozen(path, _freeze(phys), setup), delay_s=delay,
-                        tracker_offset_m=offset)
+                        tracker_offset_m=offset, signatures=setup.signatures)
     except InputError:
         raise
     except SIM_FAILURES as exc:

@@ -6,6 +6,7 @@ import numpy as np
 
 from solver.effects import EFFECTS
 from workbench.diagnosis.remainder import sentences
+from workbench.diagnosis.identify import PARALLEL_COS, partners
 from workbench.diagnosis.result import FamilyDiagnosis
 
 
@@ -50,6 +51,21 @@ def _selection(d: FamilyDiagnosis) -> list[str]:
             + f"; it stopped because {sel['stopped']}."]
 
 
+def _params(c) -> str:
+    se = c.param_stderr
+    return ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}{_bound_note(e, k, v)}"
+                     for e, dd in c.params.items() for k, v in dd.items())
+
+
+def _separability(d: FamilyDiagnosis) -> list[str]:
+    """One sentence naming the screened pairs these logs cannot tell apart."""
+    if not d.not_separable:
+        return []
+    return ["Not separable on these logs (parallel sensitivity patterns, principal-angle cosine >= "
+            f"{PARALLEL_COS:g}): " + ", ".join(f"{' and '.join(p['effects'])} ({p['cosine']:.3f})"
+                                               for p in d.not_separable) + "."]
+
+
 def findings(d: FamilyDiagnosis) -> list[str]:
     """Plain sentences from a family's numbers: what was found, how sure, what is left."""
     top = d.ranking[0]
@@ -58,16 +74,26 @@ def findings(d: FamilyDiagnosis) -> list[str]:
             f"of {d.noise_floor:.3f} m.")
     if top.effect == "none":
         out.append(head + f" No effect needed: {top.why or ''}" + _probability(top) + ".")
+        out += _separability(d)
         out += _plausibility(d)
         return out + sentences(d.remainder, "the baseline")
-    p, se = top.params, top.param_stderr
-    ptxt = ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}{_bound_note(e, k, v)}"
-                     for e, dd in p.items() for k, v in dd.items())
-    out.append(head + f" Best explanation: {top.effect} ({ptxt}); held-out gap {top.gap_before:.3f} -> "
+    out.append(head + f" Best explanation: {top.effect} ({_params(top)}); held-out gap {top.gap_before:.3f} -> "
                f"{top.gap_after_heldout:.3f} m ({100 * top.shrink_heldout:.0f} % smaller), "
                f"{d.remaining_unexplained['above_noise_m']:.3f} m of it above the noise floor"
                + _probability(top) + ".")
+    twins = partners(d)
+    if twins:
+        # the logs cannot choose: every near-parallel explanation with its probability, not one
+        alts = [top] + [c for c, _ in twins]
+        out[-1] = (head + " Best explanations, which these logs cannot tell apart: "
+                   + " or ".join(f"{c.effect} ({_params(c)}; held-out gap {c.gap_after_heldout:.3f} m; "
+                                 f"probability {c.probability:.2f})" for c in alts)
+                   + ": their sensitivity patterns are parallel (principal-angle cosine "
+                   + ", ".join(f"{cos:.3f}" for _, cos in twins) + f" >= {PARALLEL_COS:g}) and their held-out "
+                   f"gaps within the noise floor {d.noise_floor:.3f} m of each other; the baseline's held-out gap "
+                   f"was {top.gap_before:.3f} m.")
     out += _selection(d)
+    out += _separability(d)
     out += _plausibility(d)
     likeliest = max(d.ranking, key=lambda c: -1.0 if c.probability is None else c.probability)
     if likeliest is not top and likeliest.probability is not None:

@@ -16,7 +16,9 @@ several at once by forward selection, score each held out and rank them.
    flagged and ranked behind every plausible explanation (incl. "none") whose
    held-out gap is within the noise floor of its own.
    Each ranked candidate carries a probability: Akaike weights of the held-out
-   residuals under the log's noise model (`probabilities`).
+   residuals under the log's noise model (`probabilities`). Pairs of screened
+   effects whose sensitivity patterns are parallel on the logs are recorded as
+   not separable (`identify`).
 3. How much: gap before, after on training data, after held out, per log and
    per family, with each parameter's standard error and each selected
    effect's share of the gap.
@@ -38,6 +40,7 @@ from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
+from workbench.diagnosis.identify import not_separable
 from workbench.diagnosis.remainder import remainder
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
@@ -170,7 +173,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
             excluded[e] = why
         else:
             cands.append(e)
-    scores, screen_failed = screen_scores(paths, cands, setup, base, mapper)
+    scores, screen_failed, columns = screen_scores(paths, cands, setup, base, mapper)
     failed = [Candidate(e, [e], len(calibrated_params((e,))), success=False, message=f"screen probe: {why}")
               for e, why in screen_failed.items()]
     order = sorted(scores, key=lambda e: -scores[e])
@@ -222,7 +225,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
         gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m,
-        remainder=remainder(left))
+        remainder=remainder(left),
+        not_separable=not_separable(columns, np.concatenate([base[p].floor for p in paths])))
 
 
 def group_families(paths) -> dict[str, list[str]]:

@@ -69,11 +69,10 @@ def remainder(residuals: dict[str, Residual]) -> dict:
         band = np.floor(R.station[s] / STATION_M).astype(int)
         for b in np.unique(band):
             k = band == b
-            key = f"{b * STATION_M:g}-{(b + 1) * STATION_M:g} m"
-            stations.setdefault(key, {})[log] = _steady_split(R.r[s][k], R.floor[s][k])
+            stations.setdefault(int(b), {})[log] = _steady_split(R.r[s][k], R.floor[s][k])
     if stations:
-        out["hose stations"] = {k: _entry(v) for k, v in sorted(stations.items(), key=lambda kv: float(
-            kv[0].split("-")[0]))}
+        out["hose stations"] = {f"{b * STATION_M:g} to {(b + 1) * STATION_M:g} m": _entry(v)
+                                for b, v in sorted(stations.items())}
     return out
 
 

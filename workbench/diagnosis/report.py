@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from workbench.diagnosis.identify import PARALLEL_COS
 from workbench.diagnosis.result import Diagnosis
 from workbench.provenance import ROOT, file_sha256
 from workbench.report.document import (Cell, Contents, Document, Figure, Heading, Para, Table, anchor, esc,
@@ -412,6 +413,11 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                          [[Cell(esc(k)), v, Cell("–")] for k, v in d["screen"].items()]
                          + [[Cell(esc(k)), None, Cell(esc(v), "small")] for k, v in d["not_applicable"].items()],
                          [20, 12, 68], title="Screen: the share of the residual each effect's sensitivities span"))
+        if d.get("not_separable"):
+            out.append(Para(f"Not separable on these logs (sensitivity patterns parallel: noise-weighted "
+                            f"principal-angle cosine at least {PARALLEL_COS:g}): "
+                            + ", ".join(f"{esc(' and '.join(p['effects']))} ({p['cosine']:.3f})"
+                                        for p in d["not_separable"]) + "."))
         out.append(_where_figure(name, d))
         ba = _before_after_figure(name, d)
         if ba is not None:

@@ -109,6 +109,8 @@ class FamilyDiagnosis:
     selection: dict = dataclasses.field(default_factory=dict)
     steady_floor_m: float = 0.0   # the offset turbulence of sigma_hat leaves by chance (`turbulence.steady_floor`)
     remainder: dict = dataclasses.field(default_factory=dict)   # what the best leaves (`remainder.remainder`)
+    # pairs of screened effects these logs cannot tell apart: {"effects": [a, b], "cosine"} (`identify`)
+    not_separable: list = dataclasses.field(default_factory=list)
 
     @property
     def success(self) -> bool:

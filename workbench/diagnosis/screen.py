@@ -36,10 +36,12 @@ def _screen_job(job):
     return path, effect, np.column_stack(cols)
 
 
-def screen_scores(paths, effects, setup, base: dict, mapper) -> tuple[dict, dict]:
+def screen_scores(paths, effects, setup, base: dict, mapper) -> tuple[dict, dict, dict]:
     """Share of the baseline residual (all logs together) that each effect's
     sensitivity directions span: 1 - |r - S a|^2 / |r|^2 at the least-squares a;
-    and {effect: why} for the effects whose probe simulation failed (no score)."""
+    {effect: why} for the effects whose probe simulation failed (no score);
+    and {effect: S}, each scored effect's sensitivity columns over the logs'
+    components, in `paths` order (what `identify` compares)."""
     jobs = [(p, e, setup) for e in effects for p in paths]
     sens: dict = {}
     failed: dict = {}
@@ -48,14 +50,14 @@ def screen_scores(paths, effects, setup, base: dict, mapper) -> tuple[dict, dict
             failed.setdefault(e, S)
         sens.setdefault(e, {})[p] = S
     r = np.concatenate([base[p].r for p in paths])
-    out = {}
+    out, columns = {}, {}
     for e in effects:
         if e in failed:
             continue
-        S = np.vstack([sens[e][p] for p in paths])
+        S = columns[e] = np.vstack([sens[e][p] for p in paths])
         if not np.any(np.abs(S) > 0):
             out[e] = 0.0
             continue
         a, *_ = np.linalg.lstsq(S, -r, rcond=None)
         out[e] = float(1.0 - np.sum((r + S @ a) ** 2) / max(np.sum(r ** 2), 1e-30))
-    return out, failed
+    return out, failed, columns

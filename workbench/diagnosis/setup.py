@@ -32,11 +32,15 @@ MAX_EFFECTS = 4         # forward selection stops at this many effects at once
 
 GAP_DEFINITION = {
     "pitch_doublet": "RMS over 0.25 s bins (2 s before the doublet to the end) of the tracker's drogue x, y, z "
-                     "minus the simulation's, m",
+                     "minus the simulation's, with the signature components (the tracker's phase against the tow "
+                     "point at the drogue's fundamental, times its amplitude), m",
     "trail": "RMS of the signed normal distances of the video hose's mean shape (1 m bins) from the simulated "
-             "static hose, together with the median drogue x, y, z residuals, m",
+             "static hose, together with the median drogue x, y, z residuals and the signature components (the "
+             "mean shape's second difference over 5 m), m",
     "engagement": "RMS of the video hose points' normal distances from the simulated hose, averaged per 1 s and "
-                  "3 m station, together with the drogue x, y, z residuals in 0.25 s bins, m",
+                  "3 m station, together with the drogue x, y, z residuals in 0.25 s bins and the signature "
+                  "components (the tracker's phase against the tow point; the drogue's y, z growth over the 2 s "
+                  "before contact), m",
 }
 
 
@@ -107,11 +111,15 @@ class Setup:
     """What a diagnosis simulates a log with: the kind's template with the
     log's hardware ids (`case_path` None), or one case file with a variant's
     model overrides (a validation variant calibrated on its training logs);
-    `n_elements` None keeps the case's own."""
+    `n_elements` None keeps the case's own. `signatures`: the residual with
+    its signature components (`flighttest.signatures`), which tell effects
+    apart; a validation variant's calibration leaves them out, its gates
+    being set on the comparison's own components."""
 
     n_elements: int | None = DEFAULT_ELEMENTS
     case_path: str | None = None
     overrides: tuple = ()
+    signatures: bool = True
 
     def case_for(self, rec: FlightRecord) -> Case:
         if self.case_path is None:
