@@ -4,7 +4,8 @@ several at once by forward selection, score each held out and rank them.
 1. Where: the baseline residual's where-map (`where`).
 2. Which: every library effect that can change the kind's observables is
    screened by its sensitivity pattern (`screen`); forward selection
-   (`select`) draws on the best `SCREEN_KEEP`, adding the effect that most
+   (`select`) draws on the best `SCREEN_KEEP` and every comparison-only
+   effect (no simulation to pay for), adding the effect that most
    cuts the held-out gap (`fit.TimeBlocks` for one log, `fit.LeaveOneLogOut`
    for several) while its gain beats the noise and the parameter penalty, up
    to `MAX_EFFECTS` effects. The selected set ranks first, then every other
@@ -16,7 +17,11 @@ several at once by forward selection, score each held out and rank them.
    flagged and ranked behind every plausible explanation (incl. "none") whose
    held-out gap is within the noise floor of its own.
    Each ranked candidate carries a probability: Akaike weights of the held-out
-   residuals under the log's noise model (`probabilities`). Pairs of screened
+   residuals under the log's noise model (`probabilities`), over the
+   effective number of held-out components (`effective_components`). Then
+   turbulence from its statistics (`turbulence`): joined to the selected set
+   by the same acceptance rule, and a steady effect within the offset it
+   leaves by chance moved behind it. Pairs of screened
    effects whose sensitivity patterns are parallel on the logs are recorded as
    not separable (`identify`).
 3. How much: gap before, after on training data, after held out, per log and
@@ -178,7 +183,11 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
               for e, why in screen_failed.items()]
     order = sorted(scores, key=lambda e: -scores[e])
     say("screen: " + ", ".join(f"{e} {scores[e]:.2f}" for e in order))
-    sel = forward_select(paths, order[:SCREEN_KEEP], setup, mapper, gap_before_heldout, floor, say=say)
+    # the screen's best, and every comparison-only effect: it costs no simulation,
+    # and a small offset (the tracked point's) screens low beside a large effect
+    # yet is still there once that effect is in
+    pool = order[:SCREEN_KEEP] + [e for e in order[SCREEN_KEEP:] if EFFECTS[e].comparison_only]
+    sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say)
     failed += sel.failed
     # turbulence from its statistics, its random motion measured about the selected set's time runs
     turb = random_candidate(paths, base, sel.chosen, setup, mapper)
@@ -220,7 +229,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         n_elements=setup.n_elements, gap_definition=GAP_DEFINITION[kind], gap_before=gap_before,
         noise_floor=floor, gap_real=not within_noise,
         held_out_scheme=splitter_for(paths).scheme,
-        screen={e: scores[e] for e in order}, screened_out=order[SCREEN_KEEP:], not_applicable=excluded,
+        screen={e: scores[e] for e in order}, screened_out=[e for e in order if e not in pool], not_applicable=excluded,
         ranking=ranking, failed=failed, selection=sel.to_json(),
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
