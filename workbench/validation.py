@@ -416,9 +416,16 @@ def calibrate_variant(case: Case, v: dict, paths: list[str]) -> dict:
     with the case's own model and the variant's overrides: the diagnosis's
     calibrator on the comparison's components of those logs (not the
     signature components: the gates were set on these). {"effects": {name: {param:
-    value}}, "stderr": {...}, "gap_before", "gap_train" (m), "on": test ids}."""
+    value}}, "stderr": {...}, "gap_before", "gap_train" (m), "on": test ids}.
+    The effects are fitted one more at a time in the order `calibrate` lists
+    them (the order forward selection added them), each fit starting at the
+    last one's values (the grid spans only the new effect's parameters), as
+    the diagnosis fitted them: a cold grid over four or five effects'
+    parameters at once would cost thousands of simulations."""
     setup = Setup(None, str(case.path), tuple(sorted(_overrides(v, {}).items())), signatures=False)
-    cal = EffectCalibrator(v["calibrate"], setup).fit(paths)
+    cal = None
+    for k in range(1, len(v["calibrate"]) + 1):
+        cal = EffectCalibrator(v["calibrate"][:k], setup).fit(paths, start=cal.params_ if cal else None)
     return {"effects": cal.params_, "stderr": cal.stderr_, "gap_train": cal.gap_train_,
             "gap_before": cal.gap_before_, "on": [Path(p).stem for p in paths]}
 
