@@ -23,7 +23,7 @@ Modules by concern, data flowing down the list:
   sigma with its error, and the steady floor a deterministic effect must beat.
 * `rank`: one family's diagnosis and the `diagnose` of many logs.
 * `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
-* `remainder`: what no library effect explains, per channel and station;
+* `remainder`: what the best explanation leaves, per channel and station;
   model form when it is the same in every log.
 * `findings`: the diagnosis in words.
 * `report`: the reporters (diagnosis.json / .html, selftest.json, the section

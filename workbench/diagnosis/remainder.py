@@ -1,11 +1,11 @@
-"""What no library effect explains: the residual left once a family's best
+"""What the best explanation leaves: the residual once a family's best
 explanation is in, channel by channel, split into what is steady in each log
 and what varies, each against the log's noise floor.
 
 A steady part of one sign and like size in every log of a family, well above
 the noise, is a model-form difference (the same in every flight of the
 hardware), not an event of one flight: it is reported as such, with where it
-lies and its size against the noise, and never handed to an effect. The
+lies and its size against the noise, beside the explanation. The
 hose channel is split by station as well, since a shape difference lies
 somewhere along the hose, not everywhere.
 """
@@ -38,11 +38,13 @@ def _steady_split(r: np.ndarray, floor: np.ndarray) -> dict:
 
 
 def _common(per_log: dict) -> bool:
-    """One sign and like size in every log, each real: the same in every flight."""
+    """One sign and like size in every log, each beyond NOISE_FACTOR x the
+    components' own noise floor (not only its mean's): the same in every flight,
+    and as large as a single component could show it."""
     if len(per_log) < 2:
         return False
     s = np.array([v["steady_m"] for v in per_log.values()])
-    real = all(v["steady_real"] for v in per_log.values())
+    real = all(abs(v["steady_m"]) > NOISE_FACTOR * v["floor_m"] for v in per_log.values())
     same_sign = bool(np.all(s > 0) or np.all(s < 0))
     return real and same_sign and float(np.max(np.abs(s)) / np.min(np.abs(s))) <= LIKE_SIZE
 
@@ -94,7 +96,7 @@ def sentences(rem: dict, explained_by: str) -> list[str]:
             ratio = abs(v["steady_m"]) / max(v["floor_m"], 1e-12)
             out.append(f"{name}: {v['steady_m']:+.3f} m steady in every log ({ratio:.0f} x its noise floor "
                        f"{v['floor_m']:.3f} m) with {explained_by} in: a model-form difference, the same in "
-                       f"every flight, that no library effect explains.")
+                       f"every flight, that the explanation leaves.")
     varying = sorted(((k, v) for k, v in entries if v["varying_m"] > NOISE_FACTOR * v["floor_m"]
                       and not k.startswith("hose at")), key=lambda kv: -kv[1]["varying_m"])
     for name, v in varying[:2]:
