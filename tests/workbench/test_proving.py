@@ -163,6 +163,12 @@ def test_summary_counts_top1_recall_and_confusion():
     assert s["by_effect"]["turbulence"]["n"] == 1 and s["by_effect"]["turbulence"]["top1"] == 0.0
     assert_allclose(s["seconds_per_log"], 15.0, rtol=1e-12)
     assert "confusion" in campaign.text({**s, "wall_s": 30.0, "generate_failed": []})
+    # a log the diagnosis's own baseline failed on is a miss, counted and said
+    failed = dict(rows[0], top="failed", correct=False, recall=0.0, shrink_heldout=0.0, diagnose_failed="diverged")
+    s = campaign.summarise(rows + [failed], "multi")
+    assert s["n"] == 3 and s["n_diagnose_failed"] == 1
+    assert_allclose(s["top1"], 1 / 3, rtol=1e-12)
+    assert "baseline failed on 1" in campaign.text({**s, "wall_s": 30.0, "generate_failed": []})
 
 
 def test_the_proving_ground_does_not_write_into_the_committed_reports(tmp_path):

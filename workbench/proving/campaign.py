@@ -30,6 +30,7 @@ import numpy as np
 from solver.chain import DivergenceError
 from solver.effects import EFFECTS
 from workbench.diagnosis.rank import diagnose_family
+from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
 from workbench.diagnosis.setup import DEFAULT_ELEMENTS, Setup
 from workbench.proving.generate import KIND_EFFECTS, generate
@@ -71,7 +72,14 @@ def run_one(job) -> dict:
         # the truth model itself failed: no log, reported apart (not scored)
         return {"kind": kind, "effects": list(effects), "seed": seed, "generate_failed": str(exc)}
     t_gen = time.perf_counter() - t
-    d = diagnose_family([str(path)], Setup(n_elements), mapper=Mapper(workers=1))
+    try:
+        d = diagnose_family([str(path)], Setup(n_elements), mapper=Mapper(workers=1))
+    except SimulationFailed as exc:
+        # the diagnosis's own baseline failed on this log: it names nothing, a miss,
+        # counted in the figures and listed with its reason
+        return {**truth, "log": path.name, "truth": "+".join(sorted(effects)), "top": "failed",
+                "diagnose_failed": str(exc), "correct": False, "recall": 0.0, "nameable": True, "unnameable": [],
+                "shrink_heldout": 0.0, "generate_s": t_gen, "diagnose_s": time.perf_counter() - t - t_gen}
     top = d.ranking[0]
     true = set(effects)
     named = [e for e in top.effects if not EFFECTS[e].model_form]
@@ -111,7 +119,7 @@ def summarise(rows: list, family: str) -> dict:
             "by_effect": {e: _figures([r for r in rows if e in r["effects"]]) for e in effects},
             "by_kind": {k: _figures([r for r in rows if r["kind"] == k]) for k in KIND_EFFECTS
                         if any(r["kind"] == k for r in rows)},
-            "confusion": confusion,
+            "confusion": confusion, "n_diagnose_failed": sum("diagnose_failed" in r for r in rows),
             "seconds_per_log": float(np.mean([r["generate_s"] + r["diagnose_s"] for r in rows])) if rows else None}
 
 
@@ -143,7 +151,9 @@ def text(r: dict) -> str:
              f"top-1 {_pct(r['top1'])}, recall {_pct(r['recall'])}, median held-out shrink "
              f"{_pct(r['median_shrink'])}; nameable logs {r['n_nameable']}, top-1 {_pct(r['top1_nameable'])}; "
              f"{r['seconds_per_log'] or 0:.0f} s per log, {r['wall_s']:.0f} s in all"
-             + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")]
+             + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")
+             + (f"; the diagnosis's baseline failed on {r['n_diagnose_failed']} (counted as misses)"
+                if r.get("n_diagnose_failed") else "")]
     for title, part in (("kind", r["by_kind"]), ("effect", r["by_effect"])):
         for k, v in part.items():
             lines.append(f"  {title} {k}: n {v['n']}, top-1 {_pct(v['top1'])}, recall {_pct(v['recall'])}, "
