@@ -151,6 +151,12 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     return ranking
 
 
+def _simulated(c: Candidate | None) -> dict:
+    """The effects of `c` a simulation can carry: all but a random one (no
+    realisation of it to simulate); {} for none."""
+    return {e: v for e, v in (c.params if c else {}).items() if e != "turbulence"}
+
+
 def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable | None = None,
                     progress: Callable[[str], None] | None = None) -> FamilyDiagnosis:
     """The where-map, ranking and gaps of one family of logs."""
@@ -212,15 +218,14 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         none.why = ("the baseline explains the logs to within their noise" if within_noise else
                     f"no effect earns its place: {sel.stopped}")
     # the evidence's independent pieces, counted in what the selected set leaves
-    det = {e: v for e, v in (sel.chosen.params if sel.chosen else {}).items() if e != "turbulence"}
-    n_eff = effective_components([evaluate(p, det, setup) for p in paths])
+    n_eff = effective_components([evaluate(p, _simulated(sel.chosen), setup) for p in paths])
     ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff))
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation's deterministic effects are in
     # (their parameters fitted on all logs): what is left for the next effect to
     # explain; a random effect has no realisation to simulate
     after = {}
-    det = {e: v for e, v in ranking[0].params.items() if e != "turbulence"}
+    det = _simulated(ranking[0])
     left = {Path(p).stem: evaluate(p, det, setup) for p in paths}
     if det:
         after = {Path(p).stem: where_map(observed(p), R) for p, R in zip(paths, left.values())}
