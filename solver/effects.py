@@ -56,6 +56,11 @@ class Param:
     * `probe`: the value the diagnosis's sensitivity screen probes (and its
       mirror about `off` in the search's scale).
     * `log`: the search's grid is logarithmic (a factor spanning decades).
+    * `tolerance`: for a factor on a known value (a wind-tunnel coefficient, a
+      handbook coefficient, a bench stiffness), that value's own plausible
+      spread as a fraction: a factor fitted within off x (1 +/- tolerance)
+      is a calibration of the value the data sheet already gives, not an
+      unmodelled effect. None: the parameter is no such factor.
     """
 
     unit: str
@@ -68,6 +73,7 @@ class Param:
     search: Optional[tuple] = None
     probe: Optional[float] = None
     log: bool = False
+    tolerance: Optional[float] = None
 
     def check(self, value) -> Optional[str]:
         """A complaint about `value`, or None."""
@@ -354,15 +360,20 @@ _register(Effect(
     "drogue_lift", "In-flight drogue lift",
     model="Multiplies the drogue's wind-tunnel lift coefficient (on top of [model] drogue_lift_scale).",
     source="ARES paper, Sec. IV.B: the flight trail shows far less drogue lift than the wind tunnel.",
-    params={"scale": Param("-", 1.0, 0.0, 3.0, "factor on C_L", off=1.0, search=(0.0, 3.0), probe=0.5)},
+    # a drogue's C_L is a small difference of pressures that the tunnel's
+    # support, blockage and flow-angle corrections move by a quarter of itself
+    params={"scale": Param("-", 1.0, 0.0, 3.0, "factor on C_L", off=1.0, search=(0.0, 3.0), probe=0.5,
+                           tolerance=0.25)},
     apply=_apply_drogue_lift))
 
 _register(Effect(
     "drogue_drag", "In-flight drogue drag",
     model="Multiplies the drogue's wind-tunnel drag coefficient (on top of [model] drogue_drag_scale).",
     source="ARES paper, Eq. 10: drag coefficient and area matched to the drogue's measured drag.",
+    # the drag a drogue is designed and sized by: the tunnel's figure carries
+    # its blockage correction and the canopy's shape in flight, a tenth of it
     params={"scale": Param("-", 1.0, 0.2, 3.0, "factor on C_D", off=1.0, search=(0.3, 3.0), probe=1.5,
-                            log=True)},
+                            log=True, tolerance=0.10)},
     apply=_apply_drogue_drag))
 
 _register(Effect(
@@ -454,8 +465,9 @@ _register(Effect(
     model="Scales the hose's crossflow drag (Eq. 7 regimes) and its skin friction (Eq. 8) separately.",
     source="ARES paper, Eqs. 3-9 (Jorgensen / Hoerner coefficients, not measured on these hoses).",
     params={
+        # a handbook cylinder's C_Dn: roughness and Reynolds number move it by a fifth
         "crossflow": Param("-", 1.0, 0.25, 4.0, "factor on C_Dn", off=1.0, search=(0.25, 4.0), probe=1.6,
-                           log=True),
+                           log=True, tolerance=0.20),
         "friction": Param("-", 1.0, 0.0, 10.0, "factor on the skin-friction coefficient", off=1.0),
     },
     apply=_apply_hose_drag))
@@ -465,7 +477,10 @@ _register(Effect(
     model="Scales the bending (EI) and axial (EA) stiffness, or the property table's k_b and k_a.",
     source="ARES paper, Sec. III.A: KDC-10 hose properties scaled from the KC-130 hose, never measured.",
     params={
-        "bending": Param("-", 1.0, 0.1, 10.0, "factor on EI", off=1.0, search=(0.1, 10.0), probe=3.0, log=True),
+        # a bench ring-down's EI, or one scaled from a like hose: a rubber
+        # hose's EI moves with temperature and pressure by nearly a third
+        "bending": Param("-", 1.0, 0.1, 10.0, "factor on EI", off=1.0, search=(0.1, 10.0), probe=3.0, log=True,
+                         tolerance=0.30),
         "axial": Param("-", 1.0, 0.1, 10.0, "factor on EA", off=1.0),
     },
     apply=_apply_hose_stiffness))

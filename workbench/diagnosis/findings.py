@@ -51,6 +51,20 @@ def _selection(d: FamilyDiagnosis) -> list[str]:
             + f"; it stopped because {sel['stopped']}."]
 
 
+def _calibrations(top) -> list[str]:
+    """One sentence on the best explanation's calibrations within a data
+    sheet's tolerance (`explanation`): fitted, and named only when nothing
+    beyond its tolerance is there."""
+    if not top.calibrations:
+        return []
+    why = "; ".join(top.calibrations.values())
+    if any(e in top.calibrations for e in top.named):
+        return [f"Every event of the best explanation lies within its data sheet's tolerance ({why}): the gap "
+                "may be the hardware's own spread about its data sheet rather than an unmodelled effect."]
+    return [f"Fitted, and not named as an unmodelled effect, a calibration within its data sheet's tolerance "
+            f"({why}); the explanation names {', '.join(top.named)}."]
+
+
 def _params(c) -> str:
     se = c.param_stderr
     return ", ".join(f"{e}.{k} = {v:.3g} +/- {se[e][k]:.2g}{_bound_note(e, k, v)}"
@@ -93,6 +107,7 @@ def findings(d: FamilyDiagnosis) -> list[str]:
                    f"gaps within the noise floor {d.noise_floor:.3f} m of each other; the baseline's held-out gap "
                    f"was {top.gap_before:.3f} m.")
     out += _selection(d)
+    out += _calibrations(top)
     out += _separability(d)
     out += _plausibility(d)
     likeliest = max(d.ranking, key=lambda c: -1.0 if c.probability is None else c.probability)

@@ -15,7 +15,9 @@ several at once by forward selection, score each held out and rank them.
    simulation fails is recorded with the reason and left out of the ranking.
    A fit with a value on its search bound or outside its physical range is
    flagged and ranked behind every plausible explanation (incl. "none") whose
-   held-out gap is within the noise floor of its own.
+   held-out gap is within the noise floor of its own. An explanation names
+   its events apart from model form and from calibrations within a data
+   sheet's tolerance (`explanation`).
    Each ranked candidate carries a probability: Akaike weights of the held-out
    residuals under the log's noise model (`probabilities`), over the
    effective number of held-out components (`effective_components`). Then
@@ -43,6 +45,7 @@ from typing import Callable
 from solver.effects import EFFECTS
 from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
+from workbench.diagnosis.explanation import explain
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
 from workbench.diagnosis.identify import not_separable
@@ -137,14 +140,17 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     """The ranking of what forward selection fitted: the selected set first,
     then the other candidates by score (held-out gap x (1 + `PARAM_PENALTY`
     per parameter)), `none` last; `none` first when no set was selected. Then
-    implausible fits move behind similar plausible ones (`plausible_first`),
-    and each candidate gets its probability over the `n_heldout` held-out
-    residual components (`probabilities`)."""
+    implausible fits move behind similar plausible ones (`plausible_first`);
+    each candidate gets the events it names (`explanation.explain`) and its
+    probability over the `n_heldout` held-out residual components
+    (`probabilities`)."""
     for c in sel.fitted:
         c.score = c.gap_after_heldout * (1 + PARAM_PENALTY * c.n_params)
     others = sorted((c for c in sel.fitted if c is not sel.chosen), key=lambda c: c.score)
     ranking = [none] + others if sel.chosen is None else [sel.chosen] + others + [none]
     ranking = plausible_first(ranking, floor)
+    for c in ranking:
+        c.named, c.calibrations = explain(c.effects, c.params)
     for c, w in zip(ranking, probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking],
                                            floor, n_heldout)):
         c.probability = w

@@ -373,6 +373,15 @@ def _confusion_figure(st: dict):
                                    "diagonal is a right answer).", "diagnosis-selftest-confusion")
 
 
+def _effect_cell(c: dict) -> Cell:
+    """A ranked candidate's name in the ranking table, with its shares, and
+    what is implausible or a calibration within a data sheet's tolerance."""
+    return Cell(esc(c["effect"]) + _shares_text(c)
+                + (f" (implausible: {esc(c['implausible'])})" if c.get("implausible") else "")
+                + (f" (within data-sheet tolerance: {esc(', '.join(c['calibrations']))})"
+                   if c.get("calibrations") else ""))
+
+
 def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
     """The diagnosis as report blocks (a level-1 heading first), from the
     diagnosis.json content (`Diagnosis.to_json()`, or the file read back)."""
@@ -391,9 +400,7 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                      f"{fmt(d['gap_before'])} m against a noise floor of {fmt(d['noise_floor'])} m "
                      f"({'real' if d['gap_real'] else 'within noise'}); held out by {esc(d['held_out_scheme'])}; "
                      f"{d['n_elements']} elements; {d['wall_s']:.0f} s.")]
-        rows = [[i + 1, Cell(esc(c["effect"]) + _shares_text(c)
-                             + (f" (implausible: {esc(c['implausible'])})" if c.get("implausible") else "")),
-                 Cell(_params_text(c), "small"), c["gap_before"],
+        rows = [[i + 1, _effect_cell(c), Cell(_params_text(c), "small"), c["gap_before"],
                  c["gap_after_train"], c["gap_after_heldout"],
                  None if c.get("shrink_heldout") is None else 100 * c["shrink_heldout"]]
                 + ([c.get("probability")] if prob else []) for i, c in enumerate(d["ranking"])]

@@ -43,6 +43,8 @@ class Candidate:
     implausible: Optional[str] = None     # a fitted value on a search bound or outside its physical range
     step: Optional[int] = None
     shares: Optional[dict] = None
+    named: Optional[list] = None          # the events it names (`explanation.explain`)
+    calibrations: Optional[dict] = None   # {effect: why it is a calibration within its data sheet's tolerance}
     success: bool = True
     message: str = ""
 
@@ -63,7 +65,7 @@ class Candidate:
             out.update({"gap_before_train": self.gap_before_train,
                         "gap_after_all_fit_per_log": self.gap_after_all_fit_per_log, "folds": self.folds,
                         "screen_share": self.screen_share, "wall_s": self.wall_s})
-        for k in ("why_not_first", "why", "implausible", "step", "shares"):
+        for k in ("why_not_first", "why", "implausible", "step", "shares", "named", "calibrations"):
             if getattr(self, k) is not None:
                 out[k] = getattr(self, k)
         return out

@@ -207,8 +207,9 @@ def _one(job) -> dict:
     top = d.ranking[0]
     found = next((c for c in d.ranking if c.effect == effect), None)
     # parameters as diagnosis.json has them (a single effect's without its level)
-    return {**truth, "log": path.name, "top": top.effect, "top_params": top.to_json()["params"],
-            "correct": top.effect == effect,
+    # scored on the events the top explanation names, as the proving ground is
+    return {**truth, "log": path.name, "top": "+".join(top.named) or "none", "top_explanation": top.effect,
+            "top_params": top.to_json()["params"], "correct": top.named == [effect],
             "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
             "shrink_heldout": top.shrink_heldout,
             "true_effect_rank": (d.ranking.index(found) + 1) if found else None,

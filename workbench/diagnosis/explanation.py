@@ -1,0 +1,45 @@
+"""What an explanation names as events of the flight.
+
+A fitted set of effects is not all news. Two kinds of member are told apart
+from the events it names:
+
+* a model-form effect (`solver.effects.Effect.model_form`, the tracked point
+  on the drogue) is a difference of definition between the model and the
+  instruments, in every log of the hardware: reported as model form;
+* a calibration within a data sheet's tolerance: a factor on a known value
+  (the drogue's wind-tunnel C_L and C_D, the hose's handbook C_Dn, a bench
+  EI) fitted within that value's own plausible spread
+  (`solver.effects.Param.tolerance`) says the flight sits where the data
+  sheet could have put it. It stays in the fit (the logs want it, and the
+  other effects are measured on top of it) but is named only when nothing
+  beyond its tolerance explains the gap: then it is the only explanation
+  there is, and is said to lie within the data sheet's spread.
+"""
+from __future__ import annotations
+
+from solver.effects import EFFECTS
+
+
+def calibration(effect: str, params: dict) -> str | None:
+    """Why `effect` fitted at `params` ({param: value}) is a calibration
+    within its data sheet's tolerance, or None: every parameter it
+    calibrates has a tolerance and lies within it."""
+    eff = EFFECTS[effect]
+    parts = []
+    for name in eff.calibrated:
+        p, v = eff.params[name], params.get(name)
+        if p.tolerance is None or v is None or abs(v - p.off) > p.tolerance * abs(p.off):
+            return None
+        parts.append(f"{effect}.{name} = {v:.3g}, within the data sheet's +/- {100 * p.tolerance:.0f} % "
+                     f"({p.doc})")
+    return "; ".join(parts) or None
+
+
+def explain(effects: list, params: dict) -> tuple[list, dict]:
+    """(the events an explanation of `effects` fitted at `params`
+    ({effect: {param: value}}) names, {effect: why it is a calibration within
+    its tolerance}). Model-form effects are never named; calibrations only
+    when no other event is there."""
+    events = [e for e in effects if not EFFECTS[e].model_form]
+    cals = {e: why for e in events if (why := calibration(e, params.get(e, {})))}
+    return [e for e in events if e not in cals] or events, cals
