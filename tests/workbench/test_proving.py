@@ -16,7 +16,8 @@ from numpy.testing import assert_allclose
 
 from flighttest import read_record
 from solver.effects import EFFECTS
-from workbench.diagnosis.rank import implausibility, plausible_first, probabilities
+from workbench.diagnosis.explanation import implausibility
+from workbench.diagnosis.rank import plausible_first, probabilities
 from workbench.diagnosis.result import Candidate
 from workbench.proving import campaign
 from workbench.proving.generate import DRAWS, KIND_EFFECTS, TRACKER_HZ, generate

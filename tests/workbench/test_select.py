@@ -298,3 +298,38 @@ def test_effective_components_count_white_noise_fully_and_a_smooth_remainder_as_
     # a constant offset is one piece of evidence; channels and logs add up
     assert_allclose(effective_components([res(np.full(50, 0.2))]), 1.0)
     assert_allclose(effective_components([res(np.full(50, 0.2)), res(white)]), 1.0 + n, rtol=0.05)
+
+
+# ---------------------------------------------------------------- which addition a step takes
+
+def _fit(params: dict, g: float) -> Candidate:
+    effects = list(params)
+    return Candidate("+".join(effects), effects, len(calibrated_params(tuple(effects))), params=params,
+                     gap_after_heldout=g)
+
+
+WIND_ON_BOUND = {"steady_wind": {"vertical_mps": 6.0, "lateral_mps": 0.0}}
+
+
+def test_a_step_takes_a_plausible_addition_before_one_on_its_search_bound():
+    on_bound, lift = _fit(WIND_ON_BOUND, 0.10), _fit({"drogue_lift": {"scale": 1.5}}, 0.12)
+    assert SEL._take([on_bound, lift], None, 0.48, 0.007) == (lift, None)
+    # the fit on its bound only when no plausible addition earns its place: lift's
+    # 0.005 m gain is under twice the 0.007 m floor
+    weak = _fit({"drogue_lift": {"scale": 1.5}}, 0.475)
+    assert SEL._take([on_bound, weak], None, 0.48, 0.007) == (on_bound, None)
+    # nothing accepted: the plausible one is refused, with its reason
+    took, why = SEL._take([_fit(WIND_ON_BOUND, 0.476), weak], None, 0.48, 0.007)
+    assert took is weak and "noise floor" in why
+
+
+def test_within_the_noise_a_step_takes_the_addition_naming_fewest_events():
+    floor = 0.007
+    calibrated = _fit({"drogue_lift": {"scale": 1.1}, "drogue_drag": {"scale": 1.5}}, 0.0160)
+    wind = _fit({"drogue_drag": {"scale": 1.5}, "steady_wind": {"vertical_mps": 3.0, "lateral_mps": 0.0}}, 0.0158)
+    assert SEL.choose([wind, calibrated], floor) is calibrated
+    # beyond the noise floor the data decide
+    assert SEL.choose([_fit(calibrated.params, 0.0158 + 1.01 * floor), wind], floor) is wind
+    # the same events: fewer parameters, then the smaller gap
+    lift = _fit({"drogue_drag": {"scale": 1.5}, "drogue_lift": {"scale": 0.5}}, 0.0159)
+    assert SEL.choose([wind, lift], floor) is lift

@@ -1,4 +1,5 @@
-"""What an explanation names as events of the flight.
+"""What an explanation names as events of the flight, and whether its fit is
+physically plausible.
 
 A fitted set of effects is not all news. Two kinds of member are told apart
 from the events it names:
@@ -18,6 +19,8 @@ from the events it names:
 from __future__ import annotations
 
 from solver.effects import EFFECTS
+from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.setup import calibrated_params, to_unit
 
 
 def calibration(effect: str, params: dict) -> str | None:
@@ -43,3 +46,22 @@ def explain(effects: list, params: dict) -> tuple[list, dict]:
     events = [e for e in effects if not EFFECTS[e].model_form]
     cals = {e: why for e in events if (why := calibration(e, params.get(e, {})))}
     return [e for e in events if e not in cals] or events, cals
+
+
+BOUND_SHARE = 0.01   # a value within 1 % of its search range (in the search's scale) of a bound is on it
+
+
+def implausibility(c: Candidate) -> str | None:
+    """Why `c`'s fit is not physically plausible, or None: a value outside its
+    parameter's physical range lo..hi, or on a bound of its search range (the
+    logs want it there or beyond: the effect is standing in for another)."""
+    out = []
+    for eff, name, p in calibrated_params(tuple(c.effects)):
+        v = c.params.get(eff, {}).get(name)
+        if v is None:
+            continue
+        if not (p.lo <= v <= p.hi):
+            out.append(f"{eff}.{name} = {v:.3g} outside its physical range {p.lo:g}..{p.hi:g} {p.unit}")
+        elif p.search and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
+            out.append(f"{eff}.{name} = {v:.3g} on its search bound ({p.search[0]:g}..{p.search[1]:g})")
+    return "; ".join(out) or None

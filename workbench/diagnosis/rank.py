@@ -45,7 +45,7 @@ from typing import Callable
 from solver.effects import EFFECTS
 from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
-from workbench.diagnosis.explanation import explain
+from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
 from workbench.diagnosis.identify import not_separable
@@ -54,7 +54,7 @@ from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, forward_select, with_random
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
-                                       SCREEN_KEEP, Setup, applicable, calibrated_params, family_of, to_unit)
+                                       SCREEN_KEEP, Setup, applicable, calibrated_params, family_of)
 from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
@@ -63,25 +63,6 @@ from workbench.parallel import Mapper
 def _default_workers(workers: int | None) -> int:
     """`workers`, else one per core up to `diagnosis.max_workers`."""
     return workers or max(1, min(os.cpu_count() or 1, defaults["diagnosis.max_workers"]))
-
-
-BOUND_SHARE = 0.01   # a value within 1 % of its search range (in the search's scale) of a bound is on it
-
-
-def implausibility(c: Candidate) -> str | None:
-    """Why `c`'s fit is not physically plausible, or None: a value outside its
-    parameter's physical range lo..hi, or on a bound of its search range (the
-    logs want it there or beyond: the effect is standing in for another)."""
-    out = []
-    for eff, name, p in calibrated_params(tuple(c.effects)):
-        v = c.params.get(eff, {}).get(name)
-        if v is None:
-            continue
-        if not (p.lo <= v <= p.hi):
-            out.append(f"{eff}.{name} = {v:.3g} outside its physical range {p.lo:g}..{p.hi:g} {p.unit}")
-        elif p.search and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
-            out.append(f"{eff}.{name} = {v:.3g} on its search bound ({p.search[0]:g}..{p.search[1]:g})")
-    return "; ".join(out) or None
 
 
 def plausible_first(ranking: list, floor: float) -> list:

@@ -4,7 +4,11 @@ screened effect that most cuts the held-out gap, one step at a time.
 Step k fits every screened effect not yet selected (nor failed to simulate)
 together with the k - 1 selected ones (`score_candidate`: per fold and on all logs, warm-started at the
 selected set's fitted values, `fit.EffectCalibrator.fit(parts, start=...)`)
-and scores it held out on the same folds. The best addition is accepted when
+and scores it held out on the same folds. The step takes the best plausible
+addition (`_take`, `choose`): an implausible fit, on a search bound, only
+when no plausible one is accepted; among additions within the noise floor of
+each other, the one naming fewest events, then with fewest parameters. It is
+accepted when
 its held-out gain over the current set (current gap minus its gap, m) beats
 both the noise, gain > `NOISE_FACTOR` x the noise floor, and the parameter
 penalty, gain > `PARAM_PENALTY` x (its new parameters) x the current held-out
@@ -26,6 +30,7 @@ from pathlib import Path
 from typing import Callable
 
 from workbench.diagnosis.evaluate import gap
+from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.fit import EffectCalibrator, effects_at, ordered, splitter_for
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY, calibrated_params
@@ -89,6 +94,33 @@ def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str
     return None
 
 
+def choose(fits: list, floor: float) -> Candidate:
+    """The addition a step takes among `fits`: of those whose held-out gap
+    is within the noise floor `floor` of the best (the data cannot tell them
+    apart), the one that names the fewest events (a calibration within its
+    data sheet's tolerance is no event, `explanation.explain`), then has the
+    fewest parameters, then the smallest gap."""
+    least = min(c.gap_after_heldout for c in fits)
+    similar = [c for c in fits if c.gap_after_heldout <= least + floor]
+    return min(similar, key=lambda c: (len(explain(c.effects, c.params)[0]), c.n_params, c.gap_after_heldout))
+
+
+def _take(ok: list, chosen: Candidate | None, current: float, floor: float) -> tuple[Candidate, str | None]:
+    """(the addition a step takes, why it is refused or None). A plausible
+    fit first (`choose` among them); one on a search bound or outside its
+    physical range (`explanation.implausibility`: it stands in for another
+    effect) only when no plausible addition is accepted and it is."""
+    plausible = [c for c in ok if not implausibility(c)]
+    tries = ([choose(plausible, floor)] if plausible else []) + [choose(ok, floor)]
+    verdicts = []
+    for c in tries:
+        n_new = c.n_params - (chosen.n_params if chosen else 0)
+        verdicts.append((c, acceptance(current - c.gap_after_heldout, n_new, current, floor)))
+        if verdicts[-1][1] is None:
+            return verdicts[-1]
+    return verdicts[0]
+
+
 @dataclasses.dataclass
 class Selection:
     """What forward selection found: `chosen` the selected set (None: no
@@ -134,11 +166,10 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         if not ok:
             stopped = f"step {k}: no addition could be simulated"
             break
-        best = min(ok, key=lambda c: c.gap_after_heldout)
+        best, refused = _take(ok, chosen, current, floor)
         added = next(e for e in best.effects if e not in selected)
         gain = current - best.gap_after_heldout
         n_new = best.n_params - (chosen.n_params if chosen else 0)
-        refused = acceptance(gain, n_new, current, floor)
         steps.append({"step": k, "added": added, "candidate": best.effect, "gap_heldout_before_m": current,
                       "gap_heldout_after_m": best.gap_after_heldout, "gain_m": gain, "new_params": n_new,
                       "accepted": refused is None, "share": gain / gap_before if gap_before else None,
