@@ -31,6 +31,10 @@ _DEFAULTS = {
     "diagnosis.block_s": 2.0,
     # diagnosis: a gap under this many times its noise floor is not a real gap
     "diagnosis.noise_factor": 2.0,
+    # diagnosis: turbulence is an event of the flight from MIL-HDBK-1797's light
+    # level where it is least, low altitude: sigma_w = 0.1 W20, W20 = 15 kt, m/s;
+    # calmer air is in every flight
+    "diagnosis.light_turbulence_mps": 0.77,
     # selftest: the generated logs' truth model: elements and sample step (s)
     "selftest.truth_elements": 40,
     "selftest.record_dt_s": 0.01,

@@ -33,7 +33,8 @@ from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.fit import EffectCalibrator, effects_at, ordered, splitter_for
 from workbench.diagnosis.result import Candidate
-from workbench.diagnosis.setup import MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY, calibrated_params
+from workbench.diagnosis.setup import (LIGHT_TURBULENCE_MPS, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
+                                       calibrated_params)
 from workbench.errors import SimulationFailed
 
 
@@ -192,20 +193,24 @@ def with_random(sel: Selection, alone: Candidate, joint: Candidate | None, gap_b
     """`sel` with the random effect's candidates among the fitted: turbulence
     `alone` (against the baseline) and `joint` (the selected set with it, or
     None). The acceptance rule of a deterministic step, one new parameter,
-    admits it onto the selected set (none selected: alone) only when it also
-    earns its place alone against the baseline: a random motion too small to
-    matter beside the logs' whole departure (the light turbulence of every
-    flight) keeps its sigma in the ranking but is not named. Its share is its
-    gain on top of the set over the baseline held-out gap."""
+    admits it onto the selected set (none selected: alone) when its sigma is
+    also at least light within its error, sigma + 2 s.e. >=
+    `LIGHT_TURBULENCE_MPS`: the calmer air of every flight keeps its sigma in
+    the ranking but is not named. (A gain against the baseline would not do:
+    gaps add in quadrature, so a random motion beside a large steady offset
+    cuts the baseline's RMS by next to nothing.) Its share is its gain on top
+    of the set over the baseline held-out gap."""
     extra = [c for c in (alone, joint) if c is not None]
     current = sel.chosen.gap_after_heldout if sel.chosen else gap_before
     cand = joint if sel.chosen is not None else alone
     if cand is None:
         return dataclasses.replace(sel, fitted=sel.fitted + extra)
     gain = current - cand.gap_after_heldout
-    refused = (acceptance(gain, 1, current, floor)
-               or (acceptance(gap_before - alone.gap_after_heldout, 1, gap_before, floor) and
-                   "does not earn its place alone against the baseline"))
+    sigma, se = cand.params["turbulence"]["sigma_mps"], cand.param_stderr["turbulence"]["sigma_mps"]
+    refused = acceptance(gain, 1, current, floor) or (
+        sigma + 2.0 * se < LIGHT_TURBULENCE_MPS
+        and f"has sigma {sigma:.2f} +/- {se:.2f} m/s, calmer than light turbulence ({LIGHT_TURBULENCE_MPS:g} m/s, "
+            f"MIL-HDBK-1797) even at two standard errors: the air of every flight")
     k = len(sel.steps) + 1
     step = {"step": k, "added": "turbulence", "candidate": cand.effect, "gap_heldout_before_m": current,
             "gap_heldout_after_m": cand.gap_after_heldout, "gain_m": gain, "new_params": 1,
