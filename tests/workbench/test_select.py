@@ -320,9 +320,13 @@ def _fit(params: dict, g: float) -> Candidate:
 WIND_ON_BOUND = {"steady_wind": {"vertical_mps": 6.0, "lateral_mps": 0.0}}
 
 
-def test_a_step_takes_a_plausible_addition_before_one_on_its_search_bound():
+def test_a_step_takes_a_plausible_addition_before_one_on_its_search_bound_of_similar_gap():
+    # 0.12 against 0.10 m: within one parameter's worth of the 0.48 m left (5 %, 0.024 m)
     on_bound, lift = _fit(WIND_ON_BOUND, 0.10), _fit({"drogue_lift": {"scale": 1.5}}, 0.12)
     assert SEL._take([on_bound, lift], None, 0.48, 0.007) == (lift, None)
+    # far worse than the fit on its bound: the data decide, and the bound is flagged in the ranking
+    far = _fit({"drogue_lift": {"scale": 1.5}}, 0.10 + 1.01 * PARAM_PENALTY * 0.48)
+    assert SEL._take([on_bound, far], None, 0.48, 0.007) == (on_bound, None)
     # the fit on its bound only when no plausible addition earns its place: lift's
     # 0.005 m gain is under twice the 0.007 m floor
     weak = _fit({"drogue_lift": {"scale": 1.5}}, 0.475)

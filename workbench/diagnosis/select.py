@@ -5,10 +5,10 @@ Step k fits every screened effect not yet selected (nor failed to simulate)
 together with the k - 1 selected ones (`score_candidate`: per fold and on all logs, warm-started at the
 selected set's fitted values, `fit.EffectCalibrator.fit(parts, start=...)`)
 and scores it held out on the same folds. The step takes the best plausible
-addition (`_take`, `choose`): an implausible fit, on a search bound, only
-when no plausible one is accepted; among additions within the noise floor of
-each other, the one naming fewest events, then with fewest parameters. It is
-accepted when
+addition (`_take`, `choose`): among additions within the noise floor of
+each other, the one naming fewest events, then with fewest parameters; and a
+plausible addition before an implausible one (on a search bound) of similar
+gap. It is accepted when
 its held-out gain over the current set (current gap minus its gap, m) beats
 both the noise, gain > `NOISE_FACTOR` x the noise floor, and the parameter
 penalty, gain > `PARAM_PENALTY` x (its new parameters) x the current held-out
@@ -107,12 +107,20 @@ def choose(fits: list, floor: float) -> Candidate:
 
 
 def _take(ok: list, chosen: Candidate | None, current: float, floor: float) -> tuple[Candidate, str | None]:
-    """(the addition a step takes, why it is refused or None). A plausible
-    fit first (`choose` among them); one on a search bound or outside its
-    physical range (`explanation.implausibility`: it stands in for another
-    effect) only when no plausible addition is accepted and it is."""
+    """(the addition a step takes, why it is refused or None). The best
+    (`choose`); but when its fit is implausible (`explanation.implausibility`:
+    on a search bound or outside its physical range, standing in for another
+    effect) and a plausible addition's held-out gap is similar, within the
+    noise floor or one parameter's worth of the gap left (`PARAM_PENALTY` x
+    `current`), the plausible one first, the implausible one only if the
+    plausible one is refused and it is not."""
+    best = choose(ok, floor)
     plausible = [c for c in ok if not implausibility(c)]
-    tries = ([choose(plausible, floor)] if plausible else []) + [choose(ok, floor)]
+    tries = [best]
+    if plausible and implausibility(best):
+        alt = choose(plausible, floor)
+        if alt.gap_after_heldout <= best.gap_after_heldout + max(floor, PARAM_PENALTY * current):
+            tries = [alt, best]
     verdicts = []
     for c in tries:
         n_new = c.n_params - (chosen.n_params if chosen else 0)
