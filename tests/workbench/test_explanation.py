@@ -6,7 +6,9 @@ import numpy as np
 from hypothesis import given, strategies as st
 
 from solver.effects import EFFECTS
-from workbench.diagnosis.explanation import calibration, explain
+from workbench.diagnosis.explanation import calibration, datasheet_factor, explain
+from workbench.diagnosis.rank import selection_pool
+from workbench.diagnosis.setup import SCREEN_KEEP
 from workbench.diagnosis.result import Candidate, FamilyDiagnosis
 
 TOL = EFFECTS["drogue_lift"].params["scale"].tolerance
@@ -98,3 +100,12 @@ def test_generated_factor_effects_lie_beyond_the_data_sheets_tolerance():
     for name in ("drogue_lift", "drogue_drag", "hose_drag", "hose_stiffness"):
         for _ in range(200):
             assert calibration(name, DRAWS[name](rng, 30.0)) is None, name
+
+
+def test_the_selection_pool_keeps_every_data_sheet_factor_and_comparison_only_effect():
+    assert {e for e in EFFECTS if datasheet_factor(e)} == {"drogue_lift", "drogue_drag", "hose_drag",
+                                                           "hose_stiffness"}
+    order = ["steady_wind", "tanker_wake", "sensor_lag", "bow_wave", "reel_lag", "gust", "drogue_drag",
+             "drogue_reference", "hose_stiffness"]
+    pool = selection_pool(order)
+    assert pool == order[:SCREEN_KEEP] + ["drogue_drag", "drogue_reference", "hose_stiffness"]

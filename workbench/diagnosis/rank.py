@@ -4,8 +4,9 @@ several at once by forward selection, score each held out and rank them.
 1. Where: the baseline residual's where-map (`where`).
 2. Which: every library effect that can change the kind's observables is
    screened by its sensitivity pattern (`screen`); forward selection
-   (`select`) draws on the best `SCREEN_KEEP` and every comparison-only
-   effect (no simulation to pay for), adding the effect that most
+   (`select`) draws on the best `SCREEN_KEEP`, every comparison-only
+   effect (no simulation to pay for) and every factor on a data sheet's
+   value (`explanation.datasheet_factor`), adding the effect that most
    cuts the held-out gap (`fit.TimeBlocks` for one log, `fit.LeaveOneLogOut`
    for several) while its gain beats the noise and the parameter penalty, up
    to `MAX_EFFECTS` effects. The selected set ranks first, then every other
@@ -45,7 +46,7 @@ from typing import Callable
 from solver.effects import EFFECTS
 from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
-from workbench.diagnosis.explanation import explain, implausibility
+from workbench.diagnosis.explanation import datasheet_factor, explain, implausibility
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
 from workbench.diagnosis.identify import not_separable
@@ -138,6 +139,18 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     return ranking
 
 
+def selection_pool(order: list) -> list:
+    """What forward selection draws from, given the screened effects best
+    first: the best `SCREEN_KEEP`; every comparison-only effect (it costs no
+    simulation, and a small offset, the tracked point's, screens low beside a
+    large effect yet is still there once that effect is in); and every factor
+    on a data sheet's value (its scatter is in every log, and alone it may
+    screen low where it unmasks another effect: a drag change that sinks the
+    drogue until a lift within its tolerance holds it up)."""
+    return order[:SCREEN_KEEP] + [e for e in order[SCREEN_KEEP:]
+                                  if EFFECTS[e].comparison_only or datasheet_factor(e)]
+
+
 def _simulated(c: Candidate | None) -> dict:
     """The effects of `c` a simulation can carry: all but a random one (no
     realisation of it to simulate); {} for none."""
@@ -176,10 +189,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
               for e, why in screen_failed.items()]
     order = sorted(scores, key=lambda e: -scores[e])
     say("screen: " + ", ".join(f"{e} {scores[e]:.2f}" for e in order))
-    # the screen's best, and every comparison-only effect: it costs no simulation,
-    # and a small offset (the tracked point's) screens low beside a large effect
-    # yet is still there once that effect is in
-    pool = order[:SCREEN_KEEP] + [e for e in order[SCREEN_KEEP:] if EFFECTS[e].comparison_only]
+    pool = selection_pool(order)
     sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say)
     failed += sel.failed
     # turbulence from its statistics, its random motion measured about the selected set's time runs
