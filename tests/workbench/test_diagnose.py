@@ -123,7 +123,6 @@ def test_a_diverging_candidate_is_recorded_with_its_reason_and_never_ranked(monk
             raise DivergenceError(reason)
         return real(path, frozen, setup)
     monkeypatch.setattr(E, "_simulate_frozen", diverging)
-    monkeypatch.setattr(RK, "SCREEN_KEEP", 4)      # the check needs only a few candidates: keep it fast
     path = str(FLIGHT / "TR-KDC10-E7.mcap")
     d = RK.diagnose_family([path], D.Setup(), mapper=Mapper(workers=1))
     assert all("drogue_lift" not in c.effects for c in d.ranking)

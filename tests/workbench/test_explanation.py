@@ -6,11 +6,18 @@ import numpy as np
 from hypothesis import given, strategies as st
 
 from solver.effects import EFFECTS
-from workbench.diagnosis.explanation import calibration, datasheet_factor, explain
-from workbench.diagnosis.rank import selection_pool
-from workbench.diagnosis.setup import SCREEN_KEEP
+from workbench.diagnosis.explanation import calibration, explain
+from pathlib import Path
+
+import pytest
+
+from workbench.diagnosis import rank as RK
+from workbench.diagnosis.evaluate import record
+from workbench.diagnosis.setup import Setup, applicable
+from workbench.parallel import Mapper
 from workbench.diagnosis.result import Candidate, FamilyDiagnosis
 
+FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
 TOL = EFFECTS["drogue_lift"].params["scale"].tolerance
 
 
@@ -61,7 +68,7 @@ def _family(top: Candidate) -> FamilyDiagnosis:
     none = Candidate("none", [], 0, gap_after_heldout=0.3, probability=0.0)
     return FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["a"], n_elements=20,
                            gap_definition="", gap_before=0.3, noise_floor=0.01, gap_real=True, held_out_scheme="",
-                           screen={}, screened_out=[], not_applicable={}, ranking=[top, none], failed=[],
+                           screen={}, not_applicable={}, ranking=[top, none], failed=[],
                            remaining_unexplained={"gap_m": 0.05, "above_noise_m": 0.049}, gap={},
                            gap_after_best={}, wall_s=1.0)
 
@@ -102,10 +109,21 @@ def test_generated_factor_effects_lie_beyond_the_data_sheets_tolerance():
             assert calibration(name, DRAWS[name](rng, 30.0)) is None, name
 
 
-def test_the_selection_pool_keeps_every_data_sheet_factor_and_comparison_only_effect():
-    assert {e for e in EFFECTS if datasheet_factor(e)} == {"drogue_lift", "drogue_drag", "hose_drag",
-                                                           "hose_stiffness"}
-    order = ["steady_wind", "tanker_wake", "sensor_lag", "bow_wave", "reel_lag", "gust", "drogue_drag",
-             "drogue_reference", "hose_stiffness"]
-    pool = selection_pool(order)
-    assert pool == order[:SCREEN_KEEP] + ["drogue_drag", "drogue_reference", "hose_stiffness"]
+def test_forward_selection_draws_on_every_applicable_effect_however_low_it_screens(monkeypatch):
+    # the screen orders the pool, it does not cut it: a local signature (the bow
+    # wave before contact) screens low beside a steady offset
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def capture(paths, pool, *args, **kw):
+        seen["pool"] = list(pool)
+        raise Stop
+    monkeypatch.setattr(RK, "forward_select", capture)
+    path = str(FLIGHT / "TR-KDC10-E7.mcap")
+    with pytest.raises(Stop):
+        RK.diagnose_family([path], Setup(), mapper=Mapper(workers=1))
+    rec = record(path)
+    applicable_here = {e for e in EFFECTS if applicable(e, "trail", Setup().case_for(rec), rec) is None}
+    assert set(seen["pool"]) == applicable_here and "drogue_reference" in seen["pool"]

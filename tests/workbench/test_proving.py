@@ -193,7 +193,7 @@ def test_findings_say_what_is_implausible_and_which_explanation_is_likeliest():
     none = Candidate("none", [], 0, gap_after_heldout=0.3, probability=0.0)
     d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["a"], n_elements=20,
                         gap_definition="", gap_before=0.3, noise_floor=0.01, gap_real=True, held_out_scheme="",
-                        screen={}, screened_out=[], not_applicable={}, ranking=[top, pair, bad, none], failed=[],
+                        screen={}, not_applicable={}, ranking=[top, pair, bad, none], failed=[],
                         remaining_unexplained={"gap_m": 0.1, "above_noise_m": 0.0995}, gap={}, gap_after_best={},
                         wall_s=1.0)
     text = "\n".join(findings(d))

@@ -144,6 +144,26 @@ def test_forward_selection_adds_what_beats_the_noise_and_refuses_the_rest():
     assert sel.to_json()["effects"] == sel.chosen.effects
 
 
+def test_model_form_is_fitted_first_even_below_the_noise_and_names_nothing():
+    # the tracked point's offset explains less than 2 x the noise floor: as a step it
+    # would be refused and stop the selection; as model form it is taken first
+    floor = 0.01
+    explained = {"drogue_lift": 1.0, "tanker_wake": 0.3, "drogue_reference": 0.015}
+    g0 = math.sqrt(floor ** 2 + sum(a ** 2 for a in explained.values()))
+    sel = SEL.forward_select(["L1"], POOL + ["drogue_reference"], Setup(), _serial, g0, floor,
+                             score=_scorer(explained, floor))
+    first = sel.steps[0]
+    assert first["step"] == 0 and first["standing"] and first["accepted"] and first["added"] == "drogue_reference"
+    assert sel.chosen.effects == ["tanker_wake", "drogue_lift", "drogue_reference"]   # the registry's order
+    assert [s["step"] for s in sel.steps] == [0, 1, 2, 3]
+    assert_allclose(sum(sel.chosen.shares.values()), 1.0 - sel.chosen.gap_after_heldout / g0, rtol=1e-12)
+    assert rank_selection(sel, _none(g0), floor, 200)[0].named == ["tanker_wake", "drogue_lift"]
+    # model form that cuts nothing is left out, and the events are selected as before
+    sel = SEL.forward_select(["L1"], POOL + ["drogue_reference"], Setup(), _serial, math.hypot(floor, 1.0), floor,
+                             score=_scorer({"drogue_lift": 1.0}, floor))
+    assert not sel.steps[0]["accepted"] and sel.chosen.effects == ["drogue_lift"]
+
+
 def test_an_addition_below_its_parameter_penalty_is_refused():
     # a model-form remainder no effect explains: steady_wind's two parameters buy
     # less than 2 x PARAM_PENALTY of the gap left, above the noise
@@ -236,7 +256,7 @@ def test_the_selection_and_its_shares_are_in_the_json_the_findings_and_the_repor
         c.gap_before, c.shrink_heldout = g0, 1.0 - c.gap_after_heldout / g0
     d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["L1"], n_elements=20,
                         gap_definition="", gap_before=g0, noise_floor=0.01, gap_real=True, held_out_scheme="",
-                        screen={}, screened_out=[], not_applicable={}, ranking=ranking, failed=[],
+                        screen={}, not_applicable={}, ranking=ranking, failed=[],
                         remaining_unexplained={"gap_m": ranking[0].gap_after_heldout, "above_noise_m": 0.0},
                         gap={}, gap_after_best={}, wall_s=1.0, selection=sel.to_json())
     js = d.to_json()

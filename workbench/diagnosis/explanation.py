@@ -23,12 +23,6 @@ from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import calibrated_params, to_unit
 
 
-def datasheet_factor(effect: str) -> bool:
-    """Whether `effect` scales a value a data sheet gives (a parameter with a
-    `tolerance`): its scatter within that tolerance is in every log."""
-    return any(p.tolerance is not None for p in EFFECTS[effect].params.values())
-
-
 def calibration(effect: str, params: dict) -> str | None:
     """Why `effect` fitted at `params` ({param: value}) is a calibration
     within its data sheet's tolerance, or None: every parameter it

@@ -4,9 +4,10 @@ several at once by forward selection, score each held out and rank them.
 1. Where: the baseline residual's where-map (`where`).
 2. Which: every library effect that can change the kind's observables is
    screened by its sensitivity pattern (`screen`); forward selection
-   (`select`) draws on the best `SCREEN_KEEP`, every comparison-only
-   effect (no simulation to pay for) and every factor on a data sheet's
-   value (`explanation.datasheet_factor`), adding the effect that most
+   (`select`) draws on every screened effect (the screen orders them: a
+   local signature, the bow wave before contact, screens low beside a
+   steady offset yet may be all that is left once that is explained),
+   first fitting the model-form ones, then adding the effect that most
    cuts the held-out gap (`fit.TimeBlocks` for one log, `fit.LeaveOneLogOut`
    for several) while its gain beats the noise and the parameter penalty, up
    to `MAX_EFFECTS` effects. The selected set ranks first, then every other
@@ -46,7 +47,7 @@ from typing import Callable
 from solver.effects import EFFECTS
 from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
-from workbench.diagnosis.explanation import datasheet_factor, explain, implausibility
+from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import splitter_for
 from workbench.diagnosis.identify import not_separable
@@ -55,7 +56,7 @@ from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, forward_select, with_random
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
-                                       SCREEN_KEEP, Setup, applicable, calibrated_params, family_of)
+                                       Setup, applicable, calibrated_params, family_of)
 from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
@@ -139,18 +140,6 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     return ranking
 
 
-def selection_pool(order: list) -> list:
-    """What forward selection draws from, given the screened effects best
-    first: the best `SCREEN_KEEP`; every comparison-only effect (it costs no
-    simulation, and a small offset, the tracked point's, screens low beside a
-    large effect yet is still there once that effect is in); and every factor
-    on a data sheet's value (its scatter is in every log, and alone it may
-    screen low where it unmasks another effect: a drag change that sinks the
-    drogue until a lift within its tolerance holds it up)."""
-    return order[:SCREEN_KEEP] + [e for e in order[SCREEN_KEEP:]
-                                  if EFFECTS[e].comparison_only or datasheet_factor(e)]
-
-
 def _simulated(c: Candidate | None) -> dict:
     """The effects of `c` a simulation can carry: all but a random one (no
     realisation of it to simulate); {} for none."""
@@ -189,7 +178,11 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
               for e, why in screen_failed.items()]
     order = sorted(scores, key=lambda e: -scores[e])
     say("screen: " + ", ".join(f"{e} {scores[e]:.2f}" for e in order))
-    pool = selection_pool(order)
+    # every screened effect: the screen's share of the baseline residual orders
+    # the pool but does not cut it, for an effect whose signature is local (the
+    # bow wave in the seconds before contact) spans a few per cent of a baseline
+    # dominated by a steady offset, yet may be all that is left once that is explained
+    pool = order
     sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say)
     failed += sel.failed
     # turbulence from its statistics, its random motion measured about the selected set's time runs
@@ -231,7 +224,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         n_elements=setup.n_elements, gap_definition=GAP_DEFINITION[kind], gap_before=gap_before,
         noise_floor=floor, gap_real=not within_noise,
         held_out_scheme=splitter_for(paths).scheme,
-        screen={e: scores[e] for e in order}, screened_out=[e for e in order if e not in pool], not_applicable=excluded,
+        screen={e: scores[e] for e in order}, not_applicable=excluded,
         ranking=ranking, failed=failed, selection=sel.to_json(),
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},

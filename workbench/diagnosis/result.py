@@ -100,7 +100,6 @@ class FamilyDiagnosis:
     gap_real: bool
     held_out_scheme: str
     screen: dict
-    screened_out: list
     not_applicable: dict
     ranking: list                 # Candidate, best first
     failed: list                  # Candidate with success False: excluded from the ranking

@@ -1,7 +1,7 @@
 """Which effects can explain a family's residual: each effect's sensitivity
 directions (probe runs below and above its off value per calibrated
-parameter) and the share of the baseline residual they span. The best
-`SCREEN_KEEP` are calibrated in full.
+parameter) and the share of the baseline residual they span: the order
+forward selection tries them in (it tries them all).
 
 A probe whose simulation fails raises `SimulationFailed`: `rank` records the
 effect as failed, with the reason, and screens it out.

@@ -1,6 +1,13 @@
 """Forward selection of several effects at once: from the baseline, add the
 screened effect that most cuts the held-out gap, one step at a time.
 
+Step 0 fits the pool's model-form effects (`Effect.model_form`: the tracked
+point on the drogue, a difference of definition between model and
+instruments in every log of the hardware) and keeps them when they cut the
+held-out gap at all: no event then stands in for them, and none is refused
+because they took part of its gain. They name no event, and do not count
+towards `MAX_EFFECTS`.
+
 Step k fits every screened effect not yet selected (nor failed to simulate)
 together with the k - 1 selected ones (`score_candidate`: per fold and on all logs, warm-started at the
 selected set's fitted values, `fit.EffectCalibrator.fit(parts, start=...)`)
@@ -29,6 +36,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
+from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.fit import EffectCalibrator, effects_at, ordered, splitter_for
@@ -155,6 +163,31 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
     held-out gap is `gap_before` (m), against the noise floor `floor` (m)."""
     chosen, current, fitted, failed, steps, dropped = None, gap_before, [], [], [], set()
     stopped = f"{MAX_EFFECTS} effects selected (the most forward selection adds)"
+    standing = ordered(e for e in pool if EFFECTS[e].model_form)
+    if standing:
+        # step 0: the model-form effects (the tracked point on the drogue) differ
+        # by definition between model and instruments, in every log of the
+        # hardware; fitted first so that no event has to stand in for them and
+        # none is refused for sharing the gap with them. Kept when they cut the
+        # held-out gap at all: what they leave is the events' to explain.
+        (c,) = mapper(score, [(paths, standing, setup, None)])
+        if not c.success:
+            failed.append(c)
+        else:
+            c.step = 0
+            fitted.append(c)
+            gain = current - c.gap_after_heldout
+            steps.append({"step": 0, "added": "+".join(standing), "candidate": c.effect, "standing": True,
+                          "gap_heldout_before_m": current, "gap_heldout_after_m": c.gap_after_heldout,
+                          "gain_m": gain, "new_params": c.n_params, "accepted": gain > 0.0,
+                          "share": gain / gap_before if gap_before else None, "alternatives": {}})
+            if gain > 0.0:
+                c.shares = {e: steps[-1]["share"] / len(standing) for e in standing}
+                chosen, current = c, c.gap_after_heldout
+                say(f"step 0: model form {c.effect}, held-out gap {current:.3f} m")
+            else:
+                c.why_not_first = "model form that does not cut the held-out gap"
+        dropped |= set(standing)
     for k in range(1, MAX_EFFECTS + 1):
         selected = tuple(chosen.effects) if chosen else ()
         # an effect whose fit failed to simulate is out of the pool: it failed
@@ -219,7 +252,7 @@ def with_random(sel: Selection, alone: Candidate, joint: Candidate | None, gap_b
         sigma + 2.0 * se < LIGHT_TURBULENCE_MPS
         and f"has sigma {sigma:.2f} +/- {se:.2f} m/s, calmer than light turbulence ({LIGHT_TURBULENCE_MPS:g} m/s, "
             f"MIL-HDBK-1797) even at two standard errors: the air of every flight")
-    k = len(sel.steps) + 1
+    k = sel.steps[-1]["step"] + 1 if sel.steps else 1
     step = {"step": k, "added": "turbulence", "candidate": cand.effect, "gap_heldout_before_m": current,
             "gap_heldout_after_m": cand.gap_after_heldout, "gain_m": gain, "new_params": 1,
             "accepted": not refused, "share": gain / gap_before if gap_before else None, "alternatives": {}}

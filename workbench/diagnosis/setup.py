@@ -28,7 +28,6 @@ NOISE_FACTOR = defaults["diagnosis.noise_factor"]
 DEFAULT_ELEMENTS = defaults["diagnosis.n_elements"]
 LIGHT_TURBULENCE_MPS = defaults["diagnosis.light_turbulence_mps"]
 PARAM_PENALTY = 0.05    # each parameter must buy 5 % of the held-out gap left
-SCREEN_KEEP = 5         # effects forward selection draws from after the screen
 MAX_EFFECTS = 4         # forward selection stops at this many effects at once
 
 GAP_DEFINITION = {
