@@ -151,15 +151,33 @@ def test_a_generated_log_keeps_the_log_contract(tmp_path, kind, effects):
 
 # ------------------------------------------------------------------- campaign
 
+def test_an_effect_s_signature_is_the_log_against_the_same_flight_without_it(tmp_path):
+    # a drogue lift of 0.0-0.5 or 1.6-2.4 x moves a trail's drogue by decimetres:
+    # far above the tracker's noise; the reference is the same form and nuisance
+    path, truth, ref = generate("trail", ["drogue_lift"], 11, tmp_path, reference=True)
+    sig = campaign.signature(path, ref)
+    assert sig["detectable"] and sig["signature_m"] > 10 * sig["signature_floor_m"]
+    # no effect withheld: the log against its own clean flight leaves the
+    # instruments' noise alone, within the noise rule
+    (tmp_path / "none").mkdir()
+    path, truth, ref = generate("trail", [], 11, tmp_path / "none", reference=True)
+    assert not campaign.signature(path, ref)["detectable"]
+    # a tracker lag acts on the instruments: the reference is the run itself
+    path, truth, ref = generate("pitch_doublet", ["sensor_lag"], 11, tmp_path, reference=True)
+    assert campaign.signature(path, ref)["signature_m"] > 0.0
+
+
+
 def test_summary_counts_top1_recall_and_confusion():
     rows = [dict(kind="trail", effects=["drogue_lift"], truth="drogue_lift", top="drogue_lift",
                  top_effects=["drogue_lift"], correct=True, recall=1.0, nameable=True, shrink_heldout=0.8,
-                 generate_s=1.0, diagnose_s=9.0),
+                 generate_s=1.0, diagnose_s=9.0, detectable=True),
             dict(kind="trail", effects=["hose_drag", "turbulence"], truth="hose_drag+turbulence", top="hose_drag",
                  top_effects=["hose_drag"], correct=False, recall=0.5, nameable=False, shrink_heldout=0.4,
-                 generate_s=1.0, diagnose_s=19.0)]
+                 generate_s=1.0, diagnose_s=19.0, detectable=False)]
     s = campaign.summarise(rows, "multi")
     assert s["top1"] == 0.5 and s["recall"] == 0.75 and s["top1_nameable"] == 1.0
+    assert s["n_detectable"] == 1 and s["top1_detectable"] == 1.0 and s["recall_detectable"] == 1.0
     assert s["confusion"] == {"drogue_lift": {"drogue_lift": 1}, "hose_drag+turbulence": {"hose_drag": 1}}
     assert s["by_effect"]["turbulence"]["n"] == 1 and s["by_effect"]["turbulence"]["top1"] == 0.0
     assert_allclose(s["seconds_per_log"], 15.0, rtol=1e-12)

@@ -22,6 +22,7 @@ within its data sheets (`physics.SPREAD`) as the real hardware is scattered.
 from __future__ import annotations
 
 import json
+import math
 import tempfile
 import time
 from typing import Callable
@@ -29,12 +30,16 @@ from pathlib import Path
 
 import numpy as np
 
+from flighttest import read_record
+from flighttest.residual import residual
 from solver.chain import DivergenceError
+from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.rank import diagnose_family
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
-from workbench.diagnosis.setup import DEFAULT_ELEMENTS, Setup
+from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup
 from workbench.proving.generate import KIND_EFFECTS, generate
+from workbench.simlog import result_to_record
 
 FAMILIES = ("single", "multi")
 MIN_EACH = 3   # every effect at least this often in the one-at-a-time family when n allows
@@ -63,15 +68,32 @@ def plan(n: int, family: str, seed: int) -> list[tuple[str, tuple, int]]:
     return out
 
 
+def signature(path: Path, reference) -> dict:
+    """How visible the withheld effects are in the log at `path`: the one
+    comparison (`flighttest.residual`, signature components included) of the
+    log with `reference`, the same flight without them (`generate(...,
+    reference=True)`). Its gap holds their signature and the instruments'
+    noise; `floor_m` is that noise's floor, and `detectable` the diagnosis's
+    own rule for a gap that is real, gap > `NOISE_FACTOR` x floor. A log
+    whose effects leave less than that carries nothing any method could name:
+    it is scored like every other, and counted apart."""
+    log = read_record(path)
+    R = residual(log, result_to_record(reference, log, ors_dt=None))
+    g, floor = gap(R.r), gap(R.floor)
+    return {"signature_m": math.sqrt(max(g ** 2 - floor ** 2, 0.0)), "signature_gap_m": g,
+            "signature_floor_m": floor, "detectable": bool(g > NOISE_FACTOR * floor)}
+
+
 def run_one(job) -> dict:
     """Generate one log and diagnose it blind (runs in a worker)."""
     kind, effects, seed, out_dir, n_elements = job
     t = time.perf_counter()
     try:
-        path, truth = generate(kind, list(effects), seed, Path(out_dir))
+        path, truth, reference = generate(kind, list(effects), seed, Path(out_dir), reference=True)
     except DivergenceError as exc:
         # the truth model itself failed: no log, reported apart (not scored)
         return {"kind": kind, "effects": list(effects), "seed": seed, "generate_failed": str(exc)}
+    truth = {**truth, **signature(path, reference)}
     t_gen = time.perf_counter() - t
     try:
         d = diagnose_family([str(path)], Setup(n_elements), mapper=Mapper(workers=1))
@@ -101,11 +123,15 @@ def _figures(rows: list) -> dict:
         return {"n": 0}
     shr = np.array([r["shrink_heldout"] for r in rows], float)
     nameable = [r for r in rows if r["nameable"]]
+    seen = [r for r in rows if r["detectable"]]
     return {"n": len(rows), "top1": float(np.mean([r["correct"] for r in rows])),
             "recall": float(np.mean([r["recall"] for r in rows])),
             "median_shrink": float(np.median(shr)), "share_shrink_ge_70pct": float(np.mean(shr >= 0.7)),
             "n_nameable": len(nameable),
-            "top1_nameable": float(np.mean([r["correct"] for r in nameable])) if nameable else None}
+            "top1_nameable": float(np.mean([r["correct"] for r in nameable])) if nameable else None,
+            "n_detectable": len(seen),
+            "top1_detectable": float(np.mean([r["correct"] for r in seen])) if seen else None,
+            "recall_detectable": float(np.mean([r["recall"] for r in seen])) if seen else None}
 
 
 def summarise(rows: list, family: str) -> dict:
@@ -151,6 +177,8 @@ def text(r: dict) -> str:
     lines = [f"proving ground (independent form), family {r['family']}: {r['n']} logs, "
              f"top-1 {_pct(r['top1'])}, recall {_pct(r['recall'])}, median held-out shrink "
              f"{_pct(r['median_shrink'])}; nameable logs {r['n_nameable']}, top-1 {_pct(r['top1_nameable'])}; "
+             f"logs whose effects are above their noise {r['n_detectable']}, top-1 {_pct(r['top1_detectable'])}, "
+             f"recall {_pct(r['recall_detectable'])}; "
              f"{r['seconds_per_log'] or 0:.0f} s per log, {r['wall_s']:.0f} s in all"
              + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")
              + (f"; the diagnosis's baseline failed on {r['n_diagnose_failed']} (counted as misses)"
@@ -158,7 +186,8 @@ def text(r: dict) -> str:
     for title, part in (("kind", r["by_kind"]), ("effect", r["by_effect"])):
         for k, v in part.items():
             lines.append(f"  {title} {k}: n {v['n']}, top-1 {_pct(v['top1'])}, recall {_pct(v['recall'])}, "
-                         f"median shrink {_pct(v['median_shrink'])}")
+                         f"median shrink {_pct(v['median_shrink'])}; above their noise {v['n_detectable']}, "
+                         f"top-1 {_pct(v['top1_detectable'])}")
     lines.append("confusion (true set -> top explanation: count):")
     for truth, row in sorted(r["confusion"].items()):
         lines.append(f"  {truth} -> " + ", ".join(f"{k}: {v}" for k, v in sorted(row.items())))

@@ -186,9 +186,24 @@ def _video(rng, res, T):
     return pd.DataFrame(rows, columns=["t_s", "point", "x_m", "z_m"])
 
 
-def generate(kind: str, effects: list[str], seed: int, out_dir: Path) -> tuple[Path, dict]:
+def _truth_run(kind, raw, inp, like, form, phys, reel, T):
+    """The truth model of this form with the physical effects `phys` (and the
+    drum reel when `reel`), run through the test."""
+    model = truth_model(truth_case(kind, raw, inp, form, phys, reel), inp, form)
+    s0 = solve_static(model, float(model.tow.t[0]))
+    if kind == "engagement":   # the probe holds the drogue from contact to disconnect
+        model.end = log_inputs.drogue_while_engaged(like, s0.pos[-1], *probe_coupling(form, model))
+    return simulate(model, T, s0, record_dt=0.01)
+
+
+def generate(kind: str, effects: list[str], seed: int, out_dir: Path,
+             reference: bool = False) -> tuple[Path, dict] | tuple[Path, dict, object]:
     """One log with `effects` on at random parameters; its path and the truth
-    (effects and parameters, the form differences, the nuisance)."""
+    (effects and parameters, the form differences, the nuisance). With
+    `reference`, also the same flight without `effects` (a `SimulationResult`
+    of the same form, inputs and nuisance turbulence, before the
+    instruments): what the log would show without them, the yardstick of
+    how visible they are (`campaign.signature`)."""
     rng = np.random.default_rng(seed)
     raw, like = _card(kind, rng)
     raw["test_id"] = f"PG-{kind}-{seed}"
@@ -213,11 +228,7 @@ def generate(kind: str, effects: list[str], seed: int, out_dir: Path) -> tuple[P
         at_contact = np.array([np.interp(t_contact, probe.index, probe[c]) for c in cols])
         probe[cols] = probe[cols].to_numpy(float) + (d0 - at_contact)
         inp = make_record(raw, topics, like.start_time_ns)
-    model = truth_model(truth_case(kind, raw, inp, form, phys, reel), inp, form)
-    s0 = solve_static(model, float(model.tow.t[0]))
-    if kind == "engagement":   # the probe holds the drogue from contact to disconnect
-        model.end = log_inputs.drogue_while_engaged(like, s0.pos[-1], *probe_coupling(form, model))
-    res = simulate(model, T, s0, record_dt=0.01)
+    res = _truth_run(kind, raw, inp, like, form, phys, reel, T)
     out = dict(topics)
     tow = topics["/tanker/tow_point"]
     drift = np.outer(tow.index.to_numpy(float) / T, rng.normal(0, 0.01, 3))   # INS drift, ~1 cm over the test
@@ -234,5 +245,12 @@ def generate(kind: str, effects: list[str], seed: int, out_dir: Path) -> tuple[P
     rec = make_record(raw, out, like.start_time_ns)
     path = Path(out_dir) / f"{raw['test_id']}.mcap"
     write_record(path, rec)
-    return path, {"kind": kind, "effects": list(effects), "params": params, "seed": seed, "card": like.info.test_id,
-                  "form": form, "nuisance_turbulence": None if "turbulence" in params else nuisance}
+    truth = {"kind": kind, "effects": list(effects), "params": params, "seed": seed, "card": like.info.test_id,
+             "form": form, "nuisance_turbulence": None if "turbulence" in params else nuisance}
+    if not reference:
+        return path, truth
+    without = {e: p for e, p in phys.items() if e not in effects}
+    without.setdefault("turbulence", nuisance)
+    # comparison-only effects (the tracker's lag) act on the instruments: the same run
+    ref = res if without == phys and not reel else _truth_run(kind, raw, inp, like, form, without, None, T)
+    return path, truth, ref
