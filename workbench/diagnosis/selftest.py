@@ -205,11 +205,12 @@ def _one(job) -> dict:
     # this job already is one worker's: the diagnosis inside it runs in series
     d = diagnose_family([str(path)], Setup(n_elements), mapper=Mapper(workers=1))
     top = d.ranking[0]
-    found = next((c for c in d.ranking if c.effect == effect), None)
-    # parameters as diagnosis.json has them (a single effect's without its level)
-    # scored on the events the top explanation names, as the proving ground is
+    found = next((c for c in d.ranking if c.named == [effect]), None)
+    # the withheld effect's fitted parameters where the top explanation holds it
+    # (beside model form, the tracked point); scored on the events the top
+    # explanation names, as the proving ground is
     return {**truth, "log": path.name, "top": "+".join(top.named) or "none", "top_explanation": top.effect,
-            "top_params": top.to_json()["params"], "correct": top.named == [effect],
+            "top_params": top.params.get(effect, {}), "correct": top.named == [effect],
             "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
             "shrink_heldout": top.shrink_heldout,
             "true_effect_rank": (d.ranking.index(found) + 1) if found else None,
