@@ -43,9 +43,10 @@ def validate(cases: str | Path | list, *, workers: int | None = None,
 
 
 def diagnose(logs: str | Path | list, *, n_elements: int = DEFAULT_ELEMENTS,
-             workers: int | None = None) -> Diagnosis:
+             workers: int | None = None, baseline: str = "fleet") -> Diagnosis:
     """Where the simulation departs from flight logs and which unmodelled effect
     explains it (`workbench diagnose`): a `Diagnosis` (`.ranking`, `.findings`,
-    `.to_pandas()`, `.plot()`)."""
+    `.to_pandas()`, `.plot()`); each family against its fleet calibration
+    where `cases/fleet.toml` lists it, unless `baseline="datasheet"`."""
     paths = [str(logs)] if isinstance(logs, (str, Path)) else [str(p) for p in logs]
-    return _diagnose(paths, n_elements, workers)
+    return _diagnose(paths, n_elements, workers, baseline=baseline)

@@ -11,7 +11,7 @@ import click
 from workbench.cli.params import WORKERS
 from workbench.errors import InputError
 from workbench.outputs import claim, timestamped
-from workbench.provenance import ROOT
+from workbench.provenance import ROOT, project_path
 
 # the diagnosis the repository keeps (validate folds it into its report): only
 # --update-committed writes it
@@ -43,8 +43,13 @@ COMMITTED = ROOT / "reports" / "diagnose"
                                       "proving ground (workbench.proving).")
 @click.option("--family", type=click.Choice(["single", "multi"]), default="single", show_default=True,
               help="Proving ground: one effect per log, or 2-3 at once.")
+@click.option("--baseline", type=click.Choice(["fleet", "datasheet"]), default="fleet", show_default=True,
+              help="What LOGS are diagnosed against: their family's fleet calibration where cases/fleet.toml "
+                   "lists it (what the program's flights established about the hardware), else the data "
+                   "sheets; or the data sheets alone. --update-committed re-derives the fleet file from "
+                   "the program's logs and needs datasheet.")
 def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_elements, workers,
-             scheduler, no_progress, quiet, proving, family) -> None:
+             scheduler, no_progress, quiet, proving, family, baseline) -> None:
     """Where the simulation departs from LOGS, which unmodelled effect explains it, how far the gap shrinks."""
     from workbench.progress import Progress
     # the display comes up first: the imports below take seconds
@@ -55,6 +60,9 @@ def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_e
         from workbench import diagnosis as D
         if not (logs or selftest):
             raise InputError("give one or more LOG.mcap files, or --selftest")
+        if update_committed and logs and baseline != "datasheet":
+            raise InputError("--update-committed: the committed diagnosis derives the fleet calibration "
+                             f"({D.FLEET_PATH.relative_to(ROOT)}) from the data sheets; give --baseline datasheet")
         out_dir = _out_folder(out_dir, update_committed)
         # the folder checked, unclaimed by another run and locked before any computing
         click.get_current_context().with_resource(
@@ -73,9 +81,13 @@ def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_e
             # the diagnosis reports its stages as they end (baseline, screen,
             # fits): each is a step of the display, its total growing with them
             out = D.diagnose([str(p) for p in logs], n_elements or D.DEFAULT_ELEMENTS, workers, scheduler,
-                             progress=lambda what: (progress.add(1), progress.done(what)))
+                             progress=lambda what: (progress.add(1), progress.done(what)), baseline=baseline)
             progress.add(1, "writing diagnosis.json and diagnosis.html")
             files = D.write_diagnosis(out, out_dir)
+            if update_committed:
+                files["fleet"] = D.write_fleet(out, " ".join(
+                    ["workbench diagnose", *(project_path(p) for p in logs),
+                     "--baseline datasheet --update-committed"]))
             progress.done()
     except BaseException:
         # the error's one line stands alone; the group's guard gives it its exit code
@@ -94,7 +106,13 @@ def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_e
         top = d.ranking[0]
         say(f"{name}: gap {d.gap_before:.3f} m (floor {d.noise_floor:.3f}); best {top.effect} "
             f"{json.dumps(top.params, default=float)} -> held out {top.gap_after_heldout:.3f} m ({d.wall_s:.0f} s)")
-    click.echo(f"wrote {files['json']} and {files['html'].name}; total {progress.elapsed_s:.1f} s")
+    for name, d in out.families.items():
+        if d.baseline:
+            say(f"{name}: diagnosed against its fleet calibration ({D.FLEET_PATH.name}): "
+                + ", ".join(f"{e} {json.dumps(ps)}" for e, ps in d.baseline.items()))
+    click.echo(f"wrote {files['json']} and {files['html'].name}"
+               + (f" and {files['fleet'].relative_to(ROOT)}" if "fleet" in files else "")
+               + f"; total {progress.elapsed_s:.1f} s")
 
 
 def _out_folder(out_dir: Path | None, update_committed: bool) -> Path:

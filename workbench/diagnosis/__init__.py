@@ -21,6 +21,8 @@ Modules by concern, data flowing down the list:
 * `turbulence`: turbulence from its statistics (the drogue's random motion
   above the tracker noise against a seeded Dryden ensemble): its candidate,
   sigma with its error, and the steady floor a deterministic effect must beat.
+* `fleet`: fleet calibrations, what the program's flights established about
+  each family's hardware: the baseline a new log of it is diagnosed against.
 * `rank`: one family's diagnosis and the `diagnose` of many logs.
 * `result`: `Diagnosis`, `FamilyDiagnosis`, `Candidate` (typed, `to_pandas()`).
 * `remainder`: what the best explanation leaves, per channel and station;
@@ -33,10 +35,11 @@ Modules by concern, data flowing down the list:
 from workbench.errors import SimulationFailed
 from workbench.diagnosis.fit import EffectCalibrator, LeaveOneLogOut, TimeBlocks
 from workbench.diagnosis.rank import diagnose, diagnose_family
-from workbench.diagnosis.report import report_blocks, write_diagnosis, write_selftest
+from workbench.diagnosis.fleet import FLEET_PATH
+from workbench.diagnosis.report import report_blocks, write_diagnosis, write_fleet, write_selftest
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.setup import DEFAULT_ELEMENTS, Setup
 
-__all__ = ["Candidate", "DEFAULT_ELEMENTS", "Diagnosis", "EffectCalibrator", "FamilyDiagnosis", "LeaveOneLogOut",
-           "Setup", "SimulationFailed", "TimeBlocks", "diagnose", "diagnose_family", "report_blocks",
-           "write_diagnosis", "write_selftest"]
+__all__ = ["Candidate", "DEFAULT_ELEMENTS", "Diagnosis", "EffectCalibrator", "FLEET_PATH", "FamilyDiagnosis",
+           "LeaveOneLogOut", "Setup", "SimulationFailed", "TimeBlocks", "diagnose", "diagnose_family", "report_blocks",
+           "write_diagnosis", "write_fleet", "write_selftest"]

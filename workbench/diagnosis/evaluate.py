@@ -71,7 +71,11 @@ def _simulate_frozen(path: str, frozen: tuple, setup: Setup):
 def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
     """The residual of the log at `path` against the baseline with `effects`
     ({name: {param: value}}; comparison-only ones act on the comparison).
-    Raises `SimulationFailed` when the simulation fails."""
+    Raises `SimulationFailed` when the simulation fails. The setup's prior
+    (`Setup.prior_effects`) is under them: a candidate's effect replaces the
+    prior's parameters it names, the others stay at the prior's values."""
+    effects = {e: {**setup.prior_effects.get(e, {}), **dict(v)} for e, v in
+               {**setup.prior_effects, **effects}.items()} if setup.prior else effects
     phys = {k: v for k, v in effects.items() if not EFFECTS[k].comparison_only}
     delay = float(effects.get("sensor_lag", {}).get("delay_s", 0.0))
     offset = float(effects.get("drogue_reference", {}).get("offset_m", 0.0))

@@ -23,28 +23,33 @@ from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import calibrated_params, to_unit
 
 
-def calibration(effect: str, params: dict) -> str | None:
+def calibration(effect: str, params: dict, ref: dict | None = None) -> str | None:
     """Why `effect` fitted at `params` ({param: value}) is a calibration
     within its data sheet's tolerance, or None: every parameter it
-    calibrates has a tolerance and lies within it."""
+    calibrates has a tolerance and lies within it, about its off value or,
+    where `ref` ({param: value}, a fleet calibration) gives one, about that."""
     eff = EFFECTS[effect]
+    ref = ref or {}
     parts = []
     for name in eff.calibrated:
         p, v = eff.params[name], params.get(name)
-        if p.tolerance is None or v is None or abs(v - p.off) > p.tolerance * abs(p.off):
+        about = float(ref.get(name, p.off))
+        if p.tolerance is None or v is None or abs(v - about) > p.tolerance * abs(about):
             return None
         parts.append(f"{effect}.{name} = {v:.3g}, within the data sheet's +/- {100 * p.tolerance:.0f} % "
-                     f"({p.doc})")
+                     f"({p.doc})" + (f" of the fleet's {about:.3g}" if name in ref else ""))
     return "; ".join(parts) or None
 
 
-def explain(effects: list, params: dict) -> tuple[list, dict]:
+def explain(effects: list, params: dict, prior: dict | None = None) -> tuple[list, dict]:
     """(the events an explanation of `effects` fitted at `params`
     ({effect: {param: value}}) names, {effect: why it is a calibration within
-    its tolerance}). Model-form effects are never named; calibrations only
-    when no other event is there."""
+    its tolerance}), tolerances about the `prior`'s values where it has them
+    (a fleet calibration, `Setup.prior_effects`). Model-form effects are
+    never named; calibrations only when no other event is there."""
+    prior = prior or {}
     events = [e for e in effects if not EFFECTS[e].model_form]
-    cals = {e: why for e in events if (why := calibration(e, params.get(e, {})))}
+    cals = {e: why for e in events if (why := calibration(e, params.get(e, {}), prior.get(e)))}
     return [e for e in events if e not in cals] or events, cals
 
 

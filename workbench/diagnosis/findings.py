@@ -71,6 +71,10 @@ def _params(c) -> str:
                      for e, dd in c.params.items() for k, v in dd.items())
 
 
+def _params_of(effects: dict) -> str:
+    return ", ".join(f"{e}.{k} = {v:.3g}" for e, dd in effects.items() for k, v in dd.items())
+
+
 def _separability(d: FamilyDiagnosis) -> list[str]:
     """One sentence naming the screened pairs these logs cannot tell apart."""
     if not d.not_separable:
@@ -85,7 +89,9 @@ def findings(d: FamilyDiagnosis) -> list[str]:
     top = d.ranking[0]
     out = []
     head = (f"{d.family} ({', '.join(d.logs)}): baseline gap {d.gap_before:.3f} m against a noise floor "
-            f"of {d.noise_floor:.3f} m.")
+            f"of {d.noise_floor:.3f} m" + (f", the baseline being the fleet calibration of this hardware "
+                                           f"(cases/fleet.toml: {_params_of(d.baseline)}): what follows is what "
+                                           f"differs from the program's earlier flights" if d.baseline else "") + ".")
     if top.effect == "none":
         out.append(head + f" No effect needed: {top.why or ''}" + _probability(top) + ".")
         out += _separability(d)

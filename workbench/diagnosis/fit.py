@@ -4,7 +4,8 @@ in the scikit-learn estimator shape, and the folds it is scored held out on.
 `EffectCalibrator(effects, setup).fit(parts)` fits the candidate's
 parameters (those with a search range in the effect registry) on `parts`: a
 grid in the unit cube of the search ranges (10 points for one parameter,
-5 x 5 for two, 4 per axis beyond, plus the off point), then bounded least
+5 x 5 for two, 4 per axis beyond, plus the off point: the setup's prior
+value where it has one, `Setup.off`), then bounded least
 squares from the best grid point, and for two or more parameters from the
 runner-up too. `fit(parts, start={effect: {param: value}})` warm-starts it
 (forward selection adding an effect to a fitted set): the parameters given
@@ -96,7 +97,7 @@ class EffectCalibrator:
         grid_1d = np.linspace(0.0, 1.0, {1: 10, 2: 5}.get(len(free), 4))
         free_points = np.stack(np.meshgrid(*[grid_1d] * len(free)), -1).reshape(-1, len(free)) if len(free) \
             else np.empty((1, 0))
-        free_points = np.vstack([free_points, [[to_unit(ps[i], ps[i].off) for i in free]]])
+        free_points = np.vstack([free_points, [[to_unit(ps[i], self.setup.off(cal[i][0], cal[i][1])) for i in free]]])
         starts = []
         for fp in free_points:
             u0 = u_start.copy()

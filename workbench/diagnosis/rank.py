@@ -55,11 +55,15 @@ from workbench.diagnosis.remainder import remainder
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, forward_select, with_random
+from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
-                                       Setup, applicable, calibrated_params, family_of)
+                                       Setup, applicable, calibrated_params, family_of, freeze)
 from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
+
+
+BASELINES = ("fleet", "datasheet")
 
 
 def _default_workers(workers: int | None) -> int:
@@ -119,12 +123,14 @@ def probabilities(gaps, n_params, floor: float, n: float) -> list[float]:
     return (w / w.sum()).tolist()
 
 
-def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: float) -> list:
+def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: float,
+                   prior: dict | None = None) -> list:
     """The ranking of what forward selection fitted: the selected set first,
     then the other candidates by score (held-out gap x (1 + `PARAM_PENALTY`
     per parameter)), `none` last; `none` first when no set was selected. Then
     implausible fits move behind similar plausible ones (`plausible_first`);
-    each candidate gets the events it names (`explanation.explain`) and its
+    each candidate gets the events it names (`explanation.explain`, about
+    the setup's `prior` where it has one) and its
     probability over the `n_heldout` held-out residual components
     (`probabilities`)."""
     for c in sel.fitted:
@@ -133,7 +139,7 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     ranking = [none] + others if sel.chosen is None else [sel.chosen] + others + [none]
     ranking = plausible_first(ranking, floor)
     for c in ranking:
-        c.named, c.calibrations = explain(c.effects, c.params)
+        c.named, c.calibrations = explain(c.effects, c.params, prior)
     for c, w in zip(ranking, probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking],
                                            floor, n_heldout)):
         c.probability = w
@@ -163,7 +169,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # out once); several: the RMS of the logs' gaps
     gap_before_heldout = gap_before_train = gap(base[paths[0]].r) if len(paths) == 1 else gap_before
     where = {Path(p).stem: where_map(observed(p), base[p]) for p in paths}
-    say(f"{family_of(recs[paths[0]])}: baseline gap {gap_before:.3f} m, noise floor {floor:.3f} m")
+    say(f"{family_of(recs[paths[0]])}: baseline gap {gap_before:.3f} m, noise floor {floor:.3f} m"
+        + (f" (against the fleet calibration: {', '.join(sorted(setup.prior_effects))})" if setup.prior else ""))
 
     excluded = {}
     cands = []
@@ -209,7 +216,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
                     f"no effect earns its place: {sel.stopped}")
     # the evidence's independent pieces, counted in what the selected set leaves
     n_eff = effective_components([evaluate(p, _simulated(sel.chosen), setup) for p in paths])
-    ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff))
+    ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff, setup.prior_effects))
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation's deterministic effects are in
     # (their parameters fitted on all logs): what is left for the next effect to
@@ -230,7 +237,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
         gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m,
         remainder=remainder(left),
-        not_separable=not_separable(columns, np.concatenate([base[p].floor for p in paths])))
+        not_separable=not_separable(columns, np.concatenate([base[p].floor for p in paths])),
+        baseline=setup.prior_effects)
 
 
 def group_families(paths) -> dict[str, list[str]]:
@@ -241,13 +249,20 @@ def group_families(paths) -> dict[str, list[str]]:
 
 
 def diagnose(paths, n_elements: int = DEFAULT_ELEMENTS, workers: int | None = None, scheduler: str | None = None,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None, baseline: str = "fleet") -> Diagnosis:
     """Diagnose every family among `paths` (local processes, or the Dask
-    cluster at `scheduler`)."""
+    cluster at `scheduler`), each against its fleet calibration where the
+    fleet file lists its family and `baseline` is "fleet" (`fleet`), else
+    against the data sheets ("datasheet")."""
+    if baseline not in BASELINES:
+        raise ValueError(f"baseline must be one of {BASELINES}, got {baseline!r}")
+    calibrated = fleet.load() if baseline == "fleet" else {}
     with Mapper(_default_workers(workers), scheduler) as mapper:
-        fams = {name: diagnose_family(ps, Setup(n_elements), mapper, progress)
+        fams = {name: diagnose_family(ps, Setup(n_elements, prior=freeze(calibrated.get(name, {}))), mapper,
+                                      progress)
                 for name, ps in group_families(paths).items()}
     return Diagnosis(logs=[str(p) for p in paths], families=fams,
                      findings=[f for d in fams.values() for f in findings(d)],
                      scheduler=scheduler or "local processes", gap_definition=GAP_DEFINITION,
-                     noise_factor=NOISE_FACTOR, param_penalty=PARAM_PENALTY, max_effects=MAX_EFFECTS)
+                     noise_factor=NOISE_FACTOR, param_penalty=PARAM_PENALTY, max_effects=MAX_EFFECTS,
+                     baseline=baseline)

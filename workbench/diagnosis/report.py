@@ -25,7 +25,8 @@ import numpy as np
 
 from workbench.diagnosis.identify import PARALLEL_COS
 from workbench.diagnosis.result import Diagnosis
-from workbench.provenance import ROOT, file_sha256
+from workbench.diagnosis.fleet import FLEET_PATH, text as fleet_text
+from workbench.provenance import ROOT, code_version, file_sha256
 from workbench.report.document import (Cell, Contents, Document, Figure, Heading, Para, Table, anchor, esc,
                                        figure_png, fmt, legend_below)
 from workbench.diagnosis.setup import NOISE_FACTOR, PARAM_PENALTY
@@ -50,6 +51,15 @@ def diagnosis_html(js: dict) -> str:
     doc = Document("Sim-to-real gap diagnosis").add(Contents(), *report_blocks(js))
     doc.add(*diagnosis_provenance(js, run_provenance()))
     return render_html(doc)
+
+
+def write_fleet(diag: Diagnosis, source: str, path: Path = FLEET_PATH) -> Path:
+    """Write the fleet calibrations `diag` (a diagnosis of the program's logs
+    against the data sheets) establishes, `fleet.text`, to `path`; `source`
+    says how it was made. Its path."""
+    path = Path(path)
+    path.write_text(fleet_text(diag, f"{source} (code {code_version()})"))
+    return path
 
 
 def write_selftest(result: dict, out_dir: Path) -> Path:

@@ -112,6 +112,9 @@ class FamilyDiagnosis:
     remainder: dict = dataclasses.field(default_factory=dict)   # what the best leaves (`remainder.remainder`)
     # pairs of screened effects these logs cannot tell apart: {"effects": [a, b], "cosine"} (`identify`)
     not_separable: list = dataclasses.field(default_factory=list)
+    # the effects every simulation carried under the candidates' own: a fleet
+    # calibration of the hardware (`fleet`), {} for the data sheets' baseline
+    baseline: dict = dataclasses.field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -145,6 +148,7 @@ class Diagnosis:
     noise_factor: float
     param_penalty: float
     max_effects: int
+    baseline: str = "datasheet"   # "fleet": families listed in the fleet file started from its calibration
 
     @property
     def ranking(self) -> list:
@@ -182,4 +186,4 @@ class Diagnosis:
         return {"logs": self.logs, "families": fams, "gap": gap, "ranking": ranking,
                 "gap_definition": self.gap_definition, "noise_factor": self.noise_factor,
                 "param_penalty": self.param_penalty, "max_effects": self.max_effects,
-                "scheduler": self.scheduler, "findings": self.findings}
+                "scheduler": self.scheduler, "findings": self.findings, "baseline": self.baseline}

@@ -24,8 +24,11 @@ def _screen_job(job):
     base = evaluate(path, {}, setup)
     cols = []
     for _, name, p in calibrated_params((effect,)):
-        u0 = to_unit(p, p.off)
-        for u in (to_unit(p, p.probe), 2.0 * u0 - to_unit(p, p.probe)):
+        # the registry's probe step (in the search's own scale), about where the
+        # parameter stands: its off value, or the setup's prior value
+        u0 = to_unit(p, setup.off(effect, name))
+        step = to_unit(p, p.probe) - to_unit(p, p.off)
+        for u in (u0 + step, u0 - step):
             if not 0.0 <= u <= 1.0 or abs(u - u0) < 1e-9:
                 continue
             try:

@@ -122,7 +122,7 @@ def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str
     return None
 
 
-def choose(fits: list, floor: float) -> Candidate:
+def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
     """The addition a step takes among `fits`: of those whose held-out gap
     is within the noise floor `floor` of the best (the data cannot tell them
     apart), the one that names the fewest events (a calibration within its
@@ -130,10 +130,11 @@ def choose(fits: list, floor: float) -> Candidate:
     fewest parameters, then the smallest gap."""
     least = min(c.gap_after_heldout for c in fits)
     similar = [c for c in fits if c.gap_after_heldout <= least + floor]
-    return min(similar, key=lambda c: (len(explain(c.effects, c.params)[0]), c.n_params, c.gap_after_heldout))
+    return min(similar, key=lambda c: (len(explain(c.effects, c.params, prior)[0]), c.n_params, c.gap_after_heldout))
 
 
-def _take(ok: list, chosen: Candidate | None, current: float, floor: float) -> tuple[Candidate, str | None]:
+def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
+          prior: dict | None = None) -> tuple[Candidate, str | None]:
     """(the addition a step takes, why it is refused or None). The best
     (`choose`); but when its fit is implausible (`explanation.implausibility`:
     on a search bound or outside its physical range, standing in for another
@@ -141,11 +142,11 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float) -> t
     noise floor or one parameter's worth of the gap left (`PARAM_PENALTY` x
     `current`), the plausible one first, the implausible one only if the
     plausible one is refused and it is not."""
-    best = choose(ok, floor)
+    best = choose(ok, floor, prior)
     plausible = [c for c in ok if not implausibility(c)]
     tries = [best]
     if plausible and implausibility(best):
-        alt = choose(plausible, floor)
+        alt = choose(plausible, floor, prior)
         if alt.gap_after_heldout <= best.gap_after_heldout + max(floor, PARAM_PENALTY * current):
             tries = [alt, best]
     verdicts = []
@@ -227,7 +228,7 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         if not ok:
             stopped = f"step {k}: no addition could be simulated"
             break
-        best, refused = _take(ok, chosen, current, floor)
+        best, refused = _take(ok, chosen, current, floor, setup.prior_effects)
         added = next(e for e in best.effects if e not in selected)
         gain = current - best.gap_after_heldout
         n_new = best.n_params - (chosen.n_params if chosen else 0)

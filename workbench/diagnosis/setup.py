@@ -114,17 +114,37 @@ class Setup:
     `n_elements` None keeps the case's own. `signatures`: the residual with
     its signature components (`flighttest.signatures`), which tell effects
     apart; a validation variant's calibration leaves them out, its gates
-    being set on the comparison's own components."""
+    being set on the comparison's own components. `prior`: effects every
+    simulation carries under a candidate's own (`prior_effects`), frozen as
+    ((effect, ((param, value), ...)), ...)."""
 
     n_elements: int | None = DEFAULT_ELEMENTS
     case_path: str | None = None
     overrides: tuple = ()
     signatures: bool = True
+    prior: tuple = ()
+
+    @property
+    def prior_effects(self) -> dict:
+        """{effect: {param: value}} every simulation of this setup carries: a
+        fleet calibration (`fleet`), what the program's earlier flights of the
+        hardware established; () is the data sheets' baseline."""
+        return {e: dict(ps) for e, ps in self.prior}
+
+    def off(self, effect: str, name: str) -> float:
+        """Where `effect`'s parameter `name` stands before a candidate moves
+        it: the prior's value, else the registry's off value."""
+        return float(self.prior_effects.get(effect, {}).get(name, EFFECTS[effect].params[name].off))
 
     def case_for(self, rec: FlightRecord) -> Case:
         if self.case_path is None:
             return baseline_case(rec, self.n_elements)
         return _with_elements(load_case(self.case_path), self.n_elements)
+
+
+def freeze(effects: dict) -> tuple:
+    """{effect: {param: value}} as a hashable, ordered tuple (`Setup.prior`)."""
+    return tuple(sorted((e, tuple(sorted((k, float(v)) for k, v in ps.items()))) for e, ps in effects.items()))
 
 
 def family_of(rec: FlightRecord) -> str:
