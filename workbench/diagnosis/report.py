@@ -113,7 +113,7 @@ def _selection_blocks(d: dict) -> list:
     sel = d.get("selection")
     if not sel:
         return []
-    rows = [[s["step"], Cell(esc(s["added"])), s["gap_heldout_before_m"], s["gap_heldout_after_m"], s["gain_m"],
+    rows = [[s["step"], Cell(esc(s["added"] if "added" in s else f"removed: {s['removed']}")), s["gap_heldout_before_m"], s["gap_heldout_after_m"], s["gain_m"],
              s["new_params"], Cell("accepted" if s["accepted"] else "refused"),
              None if s["share"] is None else 100 * s["share"]] for s in sel["steps"]]
     return [Table(["step", "best addition", "held-out gap before (m)", "after (m)", "gain (m)", "new parameters",

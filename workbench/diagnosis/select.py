@@ -16,12 +16,12 @@ addition (`_take`, `choose`): among additions within the noise floor of
 each other, the one naming fewest events, then with fewest parameters; and a
 plausible addition before an implausible one (on a search bound) of similar
 gap. It is accepted when
-what it explains held out beats the noise, sqrt(current gap^2 - its gap^2)
-> `NOISE_FACTOR` x the noise floor (gaps are RMS: what an effect explains
-and what it leaves add in quadrature, `explained`), and its gain over the
-current set (current gap minus its gap, m) beats the parameter penalty,
-gain > `PARAM_PENALTY` x (its new parameters) x the current held-out gap:
-each parameter must buy `PARAM_PENALTY` of what is left (Occam's rule).
+its held-out gain over the current set (current gap minus its gap, m) beats
+both the noise, gain > `NOISE_FACTOR` x the noise floor, and the parameter
+penalty, gain > `PARAM_PENALTY` x (its new parameters) x the current held-out
+gap: each parameter must buy `PARAM_PENALTY` of what is left (Occam's rule).
+Once it stops, backward elimination (`_backward`) drops a selected event
+that the later ones made redundant.
 Otherwise, or at `MAX_EFFECTS` effects, the selection stops and says why.
 Each accepted effect's share of the gap is its step's gain over the baseline
 held-out gap: the shares add up to the selected set's held-out shrink.
@@ -49,8 +49,8 @@ from workbench.errors import SimulationFailed
 
 
 def warm_start(c: Candidate) -> dict:
-    """Where a fit that adds an effect to `c` starts: each fold at `c`'s
-    values fitted on that fold, the all-logs fit at `c`'s own."""
+    """Where a fit that adds an effect to `c` (or drops one) starts: each fold
+    at `c`'s values fitted on that fold, the all-logs fit at `c`'s own."""
     return {"folds": [effects_at(tuple(c.effects), f["params"]) for f in c.folds], "all": c.params}
 
 
@@ -93,29 +93,12 @@ def _fit_and_score(paths, candidate, setup, warm, n_params, t_start) -> Candidat
                      gap_after_all_fit_per_log=per_log, folds=folds, wall_s=time.perf_counter() - t_start)
 
 
-def explained(gain: float, current_gap: float) -> float:
-    """The RMS (m) of what an addition explains when it cuts the held-out gap
-    `current_gap` by `gain`: gaps are RMS, so an explained part and what is
-    left add in quadrature, sqrt(current^2 - (current - gain)^2); 0 when it
-    explains nothing."""
-    after = current_gap - gain
-    return math.sqrt(max(current_gap ** 2 - after ** 2, 0.0)) if gain > 0 else 0.0
-
-
 def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str | None:
     """Why an addition that cuts the held-out gap `current_gap` by `gain` (m)
-    with `n_new` new parameters is refused, or None when it is accepted.
-
-    The noise test is on what it explains, in quadrature (`explained`), the
-    same rule as a gap's against its floor: the tracker lag of an engagement
-    that takes its fore-aft channel from 0.12 to 0.014 m explains 0.053 m,
-    yet cuts a 0.10 m gap, most of it in other channels, by only 0.015 m; a
-    test on the cut itself would refuse it however large the rest."""
+    with `n_new` new parameters is refused, or None when it is accepted."""
     noise, penalty = NOISE_FACTOR * floor, PARAM_PENALTY * n_new * current_gap
-    part = explained(gain, current_gap)
-    if part <= noise:
-        return (f"explains {part:.4f} m of the held-out gap (cutting it by {gain:.4f} m), not more than "
-                f"{NOISE_FACTOR:g} x the noise floor ({noise:.4f} m)")
+    if gain <= noise:
+        return f"cuts the held-out gap by {gain:.4f} m, not more than {NOISE_FACTOR:g} x the noise floor ({noise:.4f} m)"
     if gain <= penalty:
         return (f"cuts the held-out gap by {gain:.4f} m, not more than the parameter penalty ({PARAM_PENALTY:g} x "
                 f"{n_new} new parameter(s) x the held-out gap {current_gap:.4f} m = {penalty:.4f} m)")
@@ -230,8 +213,8 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
             break
         best, refused = _take(ok, chosen, current, floor, setup.prior_effects)
         added = next(e for e in best.effects if e not in selected)
-        gain = current - best.gap_after_heldout
         n_new = best.n_params - (chosen.n_params if chosen else 0)
+        gain = current - best.gap_after_heldout
         steps.append({"step": k, "added": added, "candidate": best.effect, "gap_heldout_before_m": current,
                       "gap_heldout_after_m": best.gap_after_heldout, "gain_m": gain, "new_params": n_new,
                       "accepted": refused is None, "share": gain / gap_before if gap_before else None,
@@ -246,7 +229,57 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         best.shares = {**(chosen.shares if chosen else {}), added: steps[-1]["share"]}
         chosen, current = best, best.gap_after_heldout
         say(f"step {k}: {added} accepted, held-out gap {current:.3f} m")
+    if chosen is not None:
+        chosen, stopped = _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed,
+                                    stopped, say)
     return Selection(chosen, fitted, failed, steps, stopped)
+
+
+def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, stopped, say):
+    """Backward elimination once forward selection stops: each selected event
+    refitted out of the set (the others polished from their values); the one
+    whose removal costs least goes when, added back, its gain would be
+    refused by the same rule (`acceptance`): an effect that entered early as
+    a stand-in (a steady wind for a drag change that sinks the drogue until a
+    lift within its tolerance holds it up) and that the later ones made
+    redundant. Repeated until every event earns its place. The shares of
+    those left keep their proportions and add up to the set's shrink."""
+    while True:
+        events = [e for e in chosen.effects if not EFFECTS[e].model_form]
+        if not events:
+            return chosen, stopped
+        warm = warm_start(chosen)
+        jobs = [(paths, ordered(x for x in chosen.effects if x != e), setup, warm) for e in events]
+        out = list(mapper(score, [j for j in jobs if j[1]])) if any(j[1] for j in jobs) else []
+        by_set = {tuple(c.effects): c for c in out}
+        costs = []
+        for e, job in zip(events, jobs):
+            c = by_set.get(tuple(job[1])) if job[1] else None
+            if job[1] and (c is None or not c.success):
+                continue
+            without = c.gap_after_heldout if c is not None else gap_before
+            n_e = chosen.n_params - (c.n_params if c is not None else 0)
+            if acceptance(without - chosen.gap_after_heldout, n_e, without, floor):
+                costs.append((without - chosen.gap_after_heldout, e, c, without))
+        failed += [c for c in out if not c.success]
+        if not costs:
+            return chosen, stopped
+        cost, e, c, without = min(costs, key=lambda t: t[0])
+        k = steps[-1]["step"] + 1
+        steps.append({"step": k, "removed": e, "candidate": c.effect if c is not None else "none",
+                      "gap_heldout_before_m": chosen.gap_after_heldout, "gap_heldout_after_m": without,
+                      "gain_m": -cost, "new_params": 0, "accepted": True, "share": None, "alternatives": {}})
+        say(f"step {k}: {e} removed, held-out gap {without:.3f} m")
+        stopped = f"{stopped}; then {e} removed (added back it would not earn its place)"
+        chosen.why_not_first = f"step {k}: {e} removed, added back it would not earn its place"
+        if c is None:
+            return None, stopped
+        c.step = k
+        fitted.append(c)
+        left = {x: s for x, s in (chosen.shares or {}).items() if x != e and s is not None}
+        total = 1.0 - without / gap_before if gap_before else 0.0
+        c.shares = {x: s * total / sum(left.values()) for x, s in left.items()} if sum(left.values()) else left
+        chosen = c
 
 
 def with_random(sel: Selection, alone: Candidate, joint: Candidate | None, gap_before: float,
