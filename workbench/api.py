@@ -47,6 +47,6 @@ def diagnose(logs: str | Path | list, *, n_elements: int = DEFAULT_ELEMENTS,
     """Where the simulation departs from flight logs and which unmodelled effect
     explains it (`workbench diagnose`): a `Diagnosis` (`.ranking`, `.findings`,
     `.to_pandas()`, `.plot()`); each family against its fleet calibration
-    where `cases/fleet.toml` lists it, unless `baseline="datasheet"`."""
+    where `cases/fleet/fleet.toml` lists it, unless `baseline="datasheet"`."""
     paths = [str(logs)] if isinstance(logs, (str, Path)) else [str(p) for p in logs]
     return _diagnose(paths, n_elements, workers, baseline=baseline)

@@ -44,7 +44,7 @@ COMMITTED = ROOT / "reports" / "diagnose"
 @click.option("--family", type=click.Choice(["single", "multi"]), default="single", show_default=True,
               help="Proving ground: one effect per log, or 2-3 at once.")
 @click.option("--baseline", type=click.Choice(["fleet", "datasheet"]), default="fleet", show_default=True,
-              help="What LOGS are diagnosed against: their family's fleet calibration where cases/fleet.toml "
+              help="What LOGS are diagnosed against: their family's fleet calibration where cases/fleet/fleet.toml "
                    "lists it (what the program's flights established about the hardware), else the data "
                    "sheets; or the data sheets alone. --update-committed re-derives the fleet file from "
                    "the program's logs and needs datasheet.")

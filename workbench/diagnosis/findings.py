@@ -90,7 +90,7 @@ def findings(d: FamilyDiagnosis) -> list[str]:
     out = []
     head = (f"{d.family} ({', '.join(d.logs)}): baseline gap {d.gap_before:.3f} m against a noise floor "
             f"of {d.noise_floor:.3f} m" + (f", the baseline being the fleet calibration of this hardware "
-                                           f"(cases/fleet.toml: {_params_of(d.baseline)}): what follows is what "
+                                           f"(cases/fleet/fleet.toml: {_params_of(d.baseline)}): what follows is what "
                                            f"differs from the program's earlier flights" if d.baseline else "") + ".")
     if top.effect == "none":
         out.append(head + f" No effect needed: {top.why or ''}" + _probability(top) + ".")

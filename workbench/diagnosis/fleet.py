@@ -11,7 +11,7 @@ doublets carrying four different effects all came out as one drogue factor).
 A flight-test engineer diagnoses a new flight against the model the earlier
 flights calibrated, and asks what differs from it.
 
-`cases/fleet.toml` holds, per family (`setup.family_of`), the effects of the
+`cases/fleet/fleet.toml` holds, per family (`setup.family_of`), the effects of the
 committed diagnosis of the program's logs (`workbench diagnose --baseline
 datasheet --update-committed`) that belong to the hardware, not to the day
 (`of_hardware`), at their calibrated values, with their source. `workbench
@@ -28,7 +28,7 @@ from pathlib import Path
 from solver.effects import EFFECTS
 from workbench.errors import InputError
 
-FLEET_PATH = Path(__file__).resolve().parent.parent.parent / "cases" / "fleet.toml"
+FLEET_PATH = Path(__file__).resolve().parent.parent.parent / "cases" / "fleet" / "fleet.toml"
 
 
 def of_hardware(effect: str) -> bool:
@@ -62,7 +62,7 @@ def _toml_value(v) -> str:
 
 
 def text(diagnosis, source: str) -> str:
-    """`cases/fleet.toml` from a `Diagnosis` of the program's logs; `source`
+    """`cases/fleet/fleet.toml` from a `Diagnosis` of the program's logs; `source`
     says which (command and code version)."""
     lines = ["# Fleet calibrations: what the program's flights established about each family's hardware,",
              "# the baseline `workbench diagnose` takes for a new log of that family (workbench/diagnosis/fleet.py).",

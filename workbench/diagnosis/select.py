@@ -242,11 +242,13 @@ def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fit
     refused by the same rule (`acceptance`): an effect that entered early as
     a stand-in (a steady wind for a drag change that sinks the drogue until a
     lift within its tolerance holds it up) and that the later ones made
-    redundant. Repeated until every event earns its place. The shares of
-    those left keep their proportions and add up to the set's shrink."""
+    redundant. Repeated while two or more events are selected (one stands on
+    its own step's acceptance). The shares of those left keep their
+    proportions and add up to the set's shrink."""
     while True:
         events = [e for e in chosen.effects if not EFFECTS[e].model_form]
-        if not events:
+        if len(events) < 2:
+            # one event: its own step accepted it against what was there before it
             return chosen, stopped
         warm = warm_start(chosen)
         jobs = [(paths, ordered(x for x in chosen.effects if x != e), setup, warm) for e in events]
