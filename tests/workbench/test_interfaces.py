@@ -214,7 +214,7 @@ def test_diagnosis_plot_has_a_panel_per_family():
     for name in ("trail/kdc10/kdc10_pod", "pitch_doublet/g3/fa18_buddy"):
         ranking = [Candidate("tanker_wake", ["tanker_wake"], 1, gap_after_heldout=0.1),
                    Candidate("none", [], 0, gap_after_heldout=1.6)]
-        fams[name] = FamilyDiagnosis(name, name.split("/")[0], [], 20, "", 1.6, 0.01, True, "", {}, [], {},
+        fams[name] = FamilyDiagnosis(name, name.split("/")[0], [], 20, "", 1.6, 0.01, True, "", {}, {},
                                      ranking, [], {}, {}, {}, 1.0)
     diag = Diagnosis([], fams, [], "local", {}, 2.0, 0.05, 4)
     fig = diag.plot()

@@ -75,7 +75,7 @@ def test_the_remainder_reaches_the_findings_the_json_and_the_report():
                      why="no effect earns its place")
     d = FamilyDiagnosis(family="trail/kdc10/kdc10_pod", kind="trail", logs=["L0", "L1"], n_elements=20,
                         gap_definition="", gap_before=0.2, noise_floor=0.01, gap_real=True, held_out_scheme="",
-                        screen={}, screened_out=[], not_applicable={}, ranking=[none], failed=[],
+                        screen={}, not_applicable={}, ranking=[none], failed=[],
                         remaining_unexplained={"gap_m": 0.2, "above_noise_m": 0.2}, gap={}, gap_after_best={},
                         wall_s=0.0, remainder=rem)
     said = findings(d)
