@@ -132,3 +132,21 @@ def test_the_committed_fleet_is_the_committed_diagnosis_s_hardware():
         for e, ps in want.items():
             for k, v in ps.items():
                 assert_allclose(got[name][e][k], v, rtol=1e-12)
+
+
+def test_a_log_of_a_listed_family_is_diagnosed_against_its_fleet_calibration(monkeypatch):
+    from workbench.diagnosis import rank as RK
+    seen = {}
+
+    def capture(paths, setup, mapper, progress):
+        seen[tuple(paths)] = setup.prior_effects
+        return types.SimpleNamespace(ranking=[], baseline=setup.prior_effects)
+    monkeypatch.setattr(RK, "diagnose_family", capture)
+    monkeypatch.setattr(RK, "findings", lambda d: [])
+    log = str(FLIGHT / "PD-G3-1.mcap")
+    out = RK.diagnose([log], workers=1)
+    assert seen[(log,)] == fleet.load()["pitch_doublet/g3/fa18_buddy"] and out.baseline == "fleet"
+    out = RK.diagnose([log], workers=1, baseline="datasheet")
+    assert seen[(log,)] == {} and out.baseline == "datasheet"
+    with pytest.raises(ValueError, match="baseline"):
+        RK.diagnose([log], workers=1, baseline="tunnel")
