@@ -41,12 +41,12 @@ class _Recorded(workbench.progress.Progress):
 @pytest.fixture
 def fake_diagnosis(monkeypatch, tmp_path):
     """The diagnosis replaced by one that reports `STAGES` and writes nothing."""
-    def diagnose(paths, n_elements, workers, scheduler, progress):
+    def diagnose(paths, n_elements, workers, scheduler, progress, baseline):
         for s in STAGES:
             progress(s)
         best = SimpleNamespace(effect="drogue_lift", params={"drogue_lift": {"scale": 0.0}}, gap_after_heldout=0.13)
         return SimpleNamespace(families={"pitch_doublet/g3": SimpleNamespace(
-            ranking=[best], gap_before=1.58, noise_floor=0.01, wall_s=2.0)})
+            ranking=[best], gap_before=1.58, noise_floor=0.01, wall_s=2.0, baseline={})})
 
     def write_diagnosis(out, out_dir):
         return {"json": Path(out_dir) / "diagnosis.json", "html": Path(out_dir) / "diagnosis.html"}
