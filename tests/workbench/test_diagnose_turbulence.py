@@ -176,7 +176,7 @@ def test_the_diagnosis_ranks_turbulence_first_on_a_turbulent_doublet_and_not_on_
     with Mapper(2) as mapper:
         d = diagnose_family([path], Setup(), mapper)
     top = d.ranking[0]
-    assert top.effect == "turbulence"
+    assert top.named == ["turbulence"]   # beside the tracked point, model form fitted first
     assert abs(top.params["turbulence"]["sigma_mps"] - truth["params"]["turbulence"]["sigma_mps"]) \
         <= 2 * top.param_stderr["turbulence"]["sigma_mps"]
     assert "turbulence" not in d.not_applicable
