@@ -62,32 +62,45 @@ def test_the_floors_are_the_scatter_they_stand_for():
     assert_allclose(np.std(fits[:, 0]), np.mean(fits[:, 1]), rtol=4 / math.sqrt(800))
 
 
-@settings(max_examples=25, deadline=None)
+REALISATIONS = 60   # noise draws per drawn (tau, f, A): 2 segments each, 120 z-scores per delay
+
+
+@settings(max_examples=6, deadline=None)
 @given(tau=st.floats(-0.35, 0.35), f=st.floats(0.3, 1.0), A=st.floats(0.1, 1.0), seed=st.integers(0, 2 ** 20))
 def test_a_known_tracker_delay_gives_the_phase_component_its_value_within_its_floor(tau, f, A, seed):
     """A tracker stamping the drogue tau late against a simulation without
     the delay: the phase component is -2 pi f tau A (the lag times the drogue's
-    velocity amplitude) within 3 standard errors; the delay applied, zero within 3 floors."""
+    velocity amplitude); the delay applied, zero. Over many noise draws the
+    component's error over its floor is a standard normal: mean 0 within
+    4 / sqrt(n) (n = 120 z-scores), spread 1 within 4 x its relative error
+    1 / sqrt(2 n) = 6.5 %. (A bound of 3 floors on each single draw fails by
+    chance once in some 370 draws, and hypothesis makes hundreds.)"""
     rng = np.random.default_rng(seed)
     w = 2 * math.pi * f
     t = np.arange(0.0, 16.0, 1 / 30)
     tow_t = np.arange(0.0, 16.0, 0.01)
-    tow_z = 0.2 * np.cos(w * tow_t) + rng.normal(0, 0.003, len(tow_t))
-    drogue = A * np.cos(w * (t - tau) + 0.7) + rng.normal(0, 0.015, len(t))
-    log_phase = _phase_log(t, drogue, tow_t, tow_z, (0.0, 16.0), f, segment_of)
-    assert len(log_phase) == 2
-    sig = LogSignatures(phase=tuple(log_phase))
     sim_t = np.arange(0.0, 16.0, 0.01)
     sim_xyz = np.zeros((len(sim_t), 3))
     sim_xyz[:, 2] = A * np.cos(w * sim_t + 0.7)
     clean_tow = (tow_t, 0.2 * np.cos(w * tow_t))
-    for delay, expect in ((0.0, -w * tau * A), (tau, 0.0)):
-        out = components(sig, t, sim_t, sim_xyz, clean_tow, None, delay, segment_of)
-        r, floor = np.array([o[0] for o in out]), np.array([o[1] for o in out])
-        # the floor is the phase's; the fitted amplitude's relative error (the
-        # same size, sigma sqrt(2/N) / A) adds floor x |phase difference|
-        assert np.all(np.abs(r - expect) <= 3 * floor * math.hypot(1.0, expect / A)), (delay, r, expect, floor)
-        assert all(o[5].startswith("tracker phase") for o in out)
+    z = {0.0: [], tau: []}
+    for _ in range(REALISATIONS):
+        tow_z = 0.2 * np.cos(w * tow_t) + rng.normal(0, 0.003, len(tow_t))
+        drogue = A * np.cos(w * (t - tau) + 0.7) + rng.normal(0, 0.015, len(t))
+        log_phase = _phase_log(t, drogue, tow_t, tow_z, (0.0, 16.0), f, segment_of)
+        assert len(log_phase) == 2
+        sig = LogSignatures(phase=tuple(log_phase))
+        for delay, expect in ((0.0, -w * tau * A), (tau, 0.0)):
+            out = components(sig, t, sim_t, sim_xyz, clean_tow, None, delay, segment_of)
+            r, floor = np.array([o[0] for o in out]), np.array([o[1] for o in out])
+            assert all(o[5].startswith("tracker phase") for o in out)
+            # the floor is the phase's; the fitted amplitude's relative error (the
+            # same size, sigma sqrt(2/N) / A) adds floor x |phase difference|
+            z[delay] += list((r - expect) / (floor * math.hypot(1.0, expect / A)))
+    for delay, zs in z.items():
+        n = len(zs)
+        assert abs(np.mean(zs)) <= 4 / math.sqrt(n), (delay, np.mean(zs))
+        assert_allclose(np.std(zs), 1.0, rtol=4 / math.sqrt(2 * n), err_msg=f"delay {delay}")
 
 
 @pytest.mark.parametrize("kind", sorted(LOG_OF_KIND))
