@@ -76,13 +76,16 @@ def _fit_and_score(paths, candidate, setup, warm, n_params, t_start) -> Candidat
                       "gap_heldout": cal.score(fold.test)})
         fitted.append(cal)
     if len(paths) == 1:
-        # one log: the parameters are the mean of the two folds' values, their
-        # spread folded into the error
+        # one log: the parameters are whichever of the two folds' values and
+        # their mean fits the whole log best (a slack hose after a large doublet
+        # can fall into another motion between two good fits, so the mean alone
+        # may fit neither half), the folds' spread folded into the error
         a, b = fitted
-        full = EffectCalibrator(candidate, setup).set_fitted(
-            [0.5 * (x + y) for x, y in zip(a.x_, b.x_)],
-            [math.hypot(0.5 * (sa + sb), 0.5 * (x - y))
-             for x, y, sa, sb in zip(a.x_, b.x_, a.stderr_x_, b.stderr_x_)])
+        stderr = [math.hypot(0.5 * (sa + sb), 0.5 * (x - y))
+                  for x, y, sa, sb in zip(a.x_, b.x_, a.stderr_x_, b.stderr_x_)]
+        options = [EffectCalibrator(candidate, setup).set_fitted(x, stderr)
+                   for x in ([0.5 * (x + y) for x, y in zip(a.x_, b.x_)], a.x_, b.x_)]
+        full = min(options, key=lambda c: c.score(paths))
     else:
         full = EffectCalibrator(candidate, setup).fit(paths, start=warm and warm["all"])
     per_log = dict(zip((Path(p).stem for p in paths), full.part_gaps(paths)))
