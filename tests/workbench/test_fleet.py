@@ -89,14 +89,14 @@ def test_every_simulation_of_a_setup_carries_its_prior_under_the_candidate(monke
     setup = Setup(prior=freeze(prior))
     assert setup.prior_effects == prior and setup.off("drogue_lift", "scale") == 0.033
     assert setup.off("drogue_drag", "scale") == EFFECTS["drogue_drag"].params["scale"].off
-    E.evaluate("log", {"drogue_lift": {"scale": 0.5}}, setup)
+    E.unweighted("log", {"drogue_lift": {"scale": 0.5}}, setup)
     # the candidate's lift replaces the prior's; the wake stays; the tracked point's
     # offset (comparison only) reaches the comparison, not the physics
     frozen, offset = seen
     assert {k: dict(v) for k, v in frozen.items()} == {"drogue_lift": {"scale": 0.5}, "tanker_wake": {"strength": 0.9}}
     assert offset == -0.2
     seen.clear()
-    E.evaluate("log", {}, Setup())
+    E.unweighted("log", {}, Setup())
     assert seen == [{}, 0.0]
 
 

@@ -1,20 +1,33 @@
 """The simulation of a log under a candidate's effects, and its residual.
 
 The residual is `flighttest.residual.residual` (the one comparison, shared
-with validation): the log's observation against the simulated record. The gap
-(one scalar per log, in metres; a family's is the RMS over its logs) is the
-RMS of its components; a gap within `NOISE_FACTOR` times its noise floor is
-noise. Its components' time segments are the blocks the time-block folds
-(`fit.TimeBlocks`) train and score on.
+with validation): the log's observation against the simulated record, each
+component then weighted by how well the model can reproduce it at all
+(`reproducibility_weight`). A slack hose whipping after disconnect, or in the
+refuelling phase, is chaotic: a change of a drogue coefficient by one part in
+a thousand moves the model's realisation of it by decimetres, so a fit there
+would chase the realisation (on an own-model engagement a lift of 1.002
+against 1.000 cut the gap by 15 %, on both halves of the log, and any effect
+fitted was credited with it). The model's spread under such imperceptible
+changes (`model_spread`) is added to the log's noise for those components,
+which keeps a perfect model's weighted gap at the log's floor. The gap (one
+scalar per log, in metres; a family's is the RMS over its logs) is the RMS
+of the weighted components; a gap within `NOISE_FACTOR` times its noise
+floor is noise. Its components' time segments are the blocks the
+time-block folds (`fit.TimeBlocks`) train and score on.
 
 Caches: a worker process reads each log once (`record`, `observed`: keyed by
-path) and simulates each (log, effects, setup) once (`_simulate_frozen`);
-all three are `functools.lru_cache`s, bounded, per process.
+path), simulates each (log, effects, setup) once (`_simulate_frozen`) and
+measures the model's spread about each (log, setup) once (`model_spread`);
+all are `functools.lru_cache`s, bounded, per process.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 from typing import Mapping
+
+import numpy as np
 
 from flighttest import FlightRecord, read_record
 from flighttest.residual import Observation, Residual, observe, residual, rms
@@ -68,14 +81,18 @@ def _simulate_frozen(path: str, frozen: tuple, setup: Setup):
     return result_to_record(sim.result, rec, note="diagnosis", ors_dt=None)
 
 
-def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
-    """The residual of the log at `path` against the baseline with `effects`
-    ({name: {param: value}}; comparison-only ones act on the comparison).
-    Raises `SimulationFailed` when the simulation fails. The setup's prior
-    (`Setup.prior_effects`) is under them: a candidate's effect replaces the
-    prior's parameters it names, the others stay at the prior's values."""
-    effects = {e: {**setup.prior_effects.get(e, {}), **dict(v)} for e, v in
-               {**setup.prior_effects, **effects}.items()} if setup.prior else effects
+def with_prior(effects: Mapping, setup: Setup) -> dict:
+    """`effects` over the setup's prior (`Setup.prior_effects`): a
+    candidate's effect replaces the prior's parameters it names, the others
+    stay at the prior's values. What every simulation of the setup carries."""
+    return {e: {**setup.prior_effects.get(e, {}), **dict(v)} for e, v in
+            {**setup.prior_effects, **effects}.items()} if setup.prior else dict(effects)
+
+
+def unweighted(path: str, effects: Mapping, setup: Setup) -> Residual:
+    """The one comparison of the log with the baseline under `effects` (the
+    setup's prior under them), unweighted."""
+    effects = with_prior(effects, setup)
     phys = {k: v for k, v in effects.items() if not EFFECTS[k].comparison_only}
     delay = float(effects.get("sensor_lag", {}).get("delay_s", 0.0))
     offset = float(effects.get("drogue_reference", {}).get("offset_m", 0.0))
@@ -86,6 +103,68 @@ def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
         raise
     except SIM_FAILURES as exc:
         raise SimulationFailed(path, effects, exc) from exc
+
+
+# Imperceptible changes of the baseline: a data-sheet drogue coefficient moved by
+# one part in a thousand either way, far inside its tolerance and the logs'
+# noise. Where the model's response to them is larger than that (a hose whipping
+# after disconnect, slack dynamics that amplify any difference), the model cannot
+# reproduce the log's realisation, only its statistics.
+REPRODUCIBILITY_PROBES = (("drogue_lift", "scale", 1.001), ("drogue_lift", "scale", 0.999),
+                          ("drogue_drag", "scale", 1.001), ("drogue_drag", "scale", 0.999))
+
+
+def irreproducible(base, probes) -> np.ndarray:
+    """The spread (m) of two independent realisations of the model, per
+    component, from the `base` run's residual and the `probes`' (consecutive
+    +/- pairs, None for one that failed): a smooth response to a probe is
+    odd in its sign and cancels in each pair's mean; what is left of the mean's
+    departure from the base, d, is realisation, of variance 3/4 of that of two
+    realisations' difference. RMS over the pairs; zeros without a whole pair."""
+    d2 = [(0.5 * (a + b) - base) ** 2 for a, b in zip(probes[0::2], probes[1::2]) if a is not None and b is not None]
+    return np.sqrt(4.0 / 3.0 * np.mean(d2, axis=0)) if d2 else np.zeros_like(base)
+
+
+@functools.lru_cache(maxsize=16)
+def model_spread(path: str, setup: Setup) -> np.ndarray:
+    """Per residual component, the model's own irreproducibility (m) about
+    the baseline (`irreproducible` under `REPRODUCIBILITY_PROBES`, each
+    relative to the setup's prior value)."""
+    runs = []
+    for effect, name, factor in REPRODUCIBILITY_PROBES:
+        try:
+            runs.append(unweighted(path, {effect: {name: setup.off(effect, name) * factor}}, setup).r)
+        except SimulationFailed:
+            runs.append(None)
+    return irreproducible(unweighted(path, {}, setup).r, runs)
+
+
+def reproducibility_weight(floor, spread) -> np.ndarray:
+    """w = f / sqrt(f^2 + m^2) per component, f the log's noise floor and m
+    the model's spread: a perfect model leaves w r with the log's own floor f
+    (w^2 (f^2 + m^2) = f^2), so the gap keeps its metres and its floor, while
+    components the model cannot reproduce weigh as little as they inform;
+    1 where the model does not spread at all."""
+    f, m = np.asarray(floor, float), np.asarray(spread, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(m > 0, f / np.sqrt(f ** 2 + m ** 2), 1.0)
+
+
+def reproducibility_weights(path: str, setup: Setup) -> np.ndarray:
+    """The log's components' `reproducibility_weight` under `model_spread`."""
+    return reproducibility_weight(unweighted(path, {}, setup).floor, model_spread(path, setup))
+
+
+def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
+    """The residual of the log at `path` against the baseline with `effects`
+    ({name: {param: value}}; comparison-only ones act on the comparison),
+    each component weighted by the model's reproducibility there
+    (`reproducibility_weights`; the floors stay the log's). Raises
+    `SimulationFailed` when the simulation fails. The setup's prior
+    (`Setup.prior_effects`) is under them: a candidate's effect replaces the
+    prior's parameters it names, the others stay at the prior's values."""
+    R = unweighted(path, effects, setup)
+    return dataclasses.replace(R, r=R.r * reproducibility_weights(path, setup))
 
 
 # a residual's gap (m) is the RMS of its components

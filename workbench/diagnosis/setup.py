@@ -30,17 +30,20 @@ LIGHT_TURBULENCE_MPS = defaults["diagnosis.light_turbulence_mps"]
 PARAM_PENALTY = 0.05    # each parameter must buy 5 % of the held-out gap left
 MAX_EFFECTS = 4         # forward selection stops at this many effects at once
 
+# every kind's components are weighted by the model's reproducibility there (`evaluate`)
+_WEIGHTED = ("; each component weighted by how well the model reproduces it at all (the log's noise over the root "
+             "sum square of that noise and the model's spread under imperceptible changes), m")
 GAP_DEFINITION = {
     "pitch_doublet": "RMS over 0.25 s bins (2 s before the doublet to the end) of the tracker's drogue x, y, z "
                      "minus the simulation's, with the signature components (the tracker's phase against the tow "
-                     "point at the drogue's fundamental, times its amplitude), m",
+                     "point at the drogue's fundamental, times its amplitude)" + _WEIGHTED,
     "trail": "RMS of the signed normal distances of the video hose's mean shape (1 m bins) from the simulated "
              "static hose, together with the median drogue x, y, z residuals and the signature components (the "
-             "mean shape's second difference over 5 m), m",
+             "mean shape's second difference over 5 m)" + _WEIGHTED,
     "engagement": "RMS of the video hose points' normal distances from the simulated hose, averaged per 1 s and "
                   "3 m station, together with the drogue x, y, z residuals in 0.25 s bins and the signature "
                   "components (the tracker's phase against the tow point; the drogue's y, z growth over the 2 s "
-                  "before contact), m",
+                  "before contact)" + _WEIGHTED,
 }
 
 

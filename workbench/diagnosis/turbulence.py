@@ -9,10 +9,17 @@ leaves that a deterministic fit cannot is random motion. Per log:
   (the steady offset is not the random effect's) and the run's own drogue
   motion with its first two derivatives (a gain, phase or damping error of
   the model's response to the test's input);
+* bins where the deterministic run is no deterministic answer left out: its
+  spread under the diagnosis's imperceptible probes (`evaluate.irreproducible`)
+  above the tracker noise of the bin mean (a drogue released at disconnect
+  whipping on a slack hose): the log's departure there is a realisation the
+  model cannot match, not random air;
 * the tracker's own noise, from the log itself: a robust (median absolute)
   second difference of consecutive fixes, var(x[i+1] - 2 x[i] + x[i-1]) / 6
   for white noise, which a drogue moving below 2 Hz barely enters at 30 Hz;
   a bin mean of n fixes keeps 1/n of its variance;
+* every run over the setup's prior (a fleet calibration), as the diagnosis
+  simulates the log (`evaluate.with_prior`);
 * the model's response to Dryden turbulence (the registry's `turbulence`) at
   `SIGMA_REF_MPS`, `N_SEEDS` seeded runs at the log's length minus the
   deterministic run, through the same bins and projection: the band variance per unit
@@ -60,7 +67,8 @@ import numpy as np
 
 from flighttest.residual import BIN_S, residual, segment_of
 from solver.effects import EFFECTS
-from workbench.diagnosis.evaluate import SIM_FAILURES, evaluate, gap, observed, record
+from workbench.diagnosis.evaluate import (REPRODUCIBILITY_PROBES, SIM_FAILURES, evaluate, gap, irreproducible,
+                                          observed, record, reproducibility_weights, with_prior)
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.fit import splitter_for
 from workbench.diagnosis.setup import NOISE_FACTOR, Setup
@@ -185,10 +193,13 @@ class LogStatistics:
 
 
 def _run(path: str, effects: dict, setup: Setup):
+    """The time run of the log under `effects` over the setup's prior, as the
+    diagnosis simulates it (`evaluate.with_prior`); its physical effects only."""
     rec = record(path)
     until = float(rec.tracker_fixes().index[-1])
+    phys = {k: v for k, v in with_prior(effects, setup).items() if not EFFECTS[k].comparison_only}
     try:
-        sim = simulate_case(setup.case_for(rec), rec, variant=dict(setup.overrides), effects=effects, until=until)
+        sim = simulate_case(setup.case_for(rec), rec, variant=dict(setup.overrides), effects=phys, until=until)
     except SIM_FAILURES as exc:
         raise SimulationFailed(path, effects, exc) from exc
     return result_to_record(sim.result, rec, note="turbulence ensemble", ors_dt=None)
@@ -200,18 +211,30 @@ def _at_fixes(sim, t) -> np.ndarray:
     return np.column_stack([np.interp(t, ts, xyz[:, c]) for c in range(3)])
 
 
-def statistics_of(path: str, t, xyz, y0, members, gap_resp, gap_segment) -> LogStatistics:
+def statistics_of(path: str, t, xyz, y0, members, gap_resp, gap_segment, probes=()) -> LogStatistics:
     """A log's statistics from its fixes (`t`, `xyz` (n, 3)), the deterministic
     run at them (`y0`), each ensemble member's run at them (`members`,
-    (K, n, 3), at SIGMA_REF_MPS) and the members' gap-component shifts."""
+    (K, n, 3), at SIGMA_REF_MPS) and the members' gap-component shifts.
+    `probes`: runs at them under imperceptible changes of the deterministic
+    model (`evaluate.REPRODUCIBILITY_PROBES`); a bin where they spread by more
+    than the tracker noise of its mean is left out: there the deterministic
+    run does not stand for the deterministic part of the motion (a slack hose
+    whipping after disconnect), and the log's departure from it is no
+    evidence of random air."""
     edges = np.arange(t[0], t[-1] + BIN_S, BIN_S)
     d, n, mid = bin_means(t, xyz - y0, edges)
-    Q = deterministic_directions(bin_means(t, y0, edges)[0], mid)
+    noise, n_noise = tracker_noise(t, xyz)
+    keep = np.ones(len(mid), bool)
+    if len(probes):
+        spread = irreproducible(np.zeros_like(d), [None if p is None else bin_means(t, p - y0, edges)[0]
+                                                    for p in probes])
+        keep = np.all(spread ** 2 <= noise ** 2 / n[:, None], axis=1)
+    d, n, mid = d[keep], n[keep], mid[keep]
+    Q = deterministic_directions(bin_means(t, y0, edges)[0][keep], mid)
 
     def off(y):   # bin means with the deterministic directions projected off
         return y - Q @ (Q.T @ y)
-    resp = [off(bin_means(t, m - y0, edges)[0]) for m in members]
-    noise, n_noise = tracker_noise(t, xyz)
+    resp = [off(bin_means(t, m - y0, edges)[0][keep]) for m in members]
     return LogStatistics(path, mid, n, np.sum(Q ** 2, axis=1), off(d), noise, n_noise, np.array(resp),
                          np.asarray(gap_resp, float), np.asarray(gap_segment))
 
@@ -224,13 +247,24 @@ def log_statistics(job) -> LogStatistics:
     ob = observed(path)
     base = _run(path, effects, setup)
     r0 = residual(ob, base)
+    over = with_prior(effects, setup)
+    probes = []
+    for effect, name, factor in REPRODUCIBILITY_PROBES:
+        value = over.get(effect, {}).get(name, EFFECTS[effect].params[name].off) * factor
+        try:
+            probes.append(_at_fixes(_run(path, {**effects, effect: {**effects.get(effect, {}), name: value}}, setup),
+                                    ob.fix_t))
+        except SimulationFailed:
+            probes.append(None)
+    # the gap components in the diagnosis's own measure (`evaluate`)
+    w = reproducibility_weights(path, setup)
     members, gresp = [], []
     for k in range(N_SEEDS):
         turb = {"sigma_mps": SIGMA_REF_MPS, "length_scale_m": LENGTH_SCALE_M, "seed": seed0 + k}
         sim = _run(path, {**effects, "turbulence": turb}, setup)
         members.append(_at_fixes(sim, ob.fix_t))
-        gresp.append(residual(ob, sim).r - r0.r)
-    return statistics_of(path, ob.fix_t, ob.fix_xyz, _at_fixes(base, ob.fix_t), members, gresp, r0.segment)
+        gresp.append(w * (residual(ob, sim).r - r0.r))
+    return statistics_of(path, ob.fix_t, ob.fix_xyz, _at_fixes(base, ob.fix_t), members, gresp, r0.segment, probes)
 
 
 # ---- sigma from the statistics ------------------------------------------------------------
