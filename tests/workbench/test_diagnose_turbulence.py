@@ -144,6 +144,14 @@ def test_a_steady_effect_within_the_turbulence_s_chance_offset_is_not_credited()
     assert [c.effect for c in ranked] == ["drogue_lift", "turbulence", "steady_wind"]
     assert "by chance" in small.why_not_first and large.why_not_first is None
     assert NOISE_FACTOR * floor > math.sqrt(0.10 ** 2 - 0.08 ** 2)
+    # the turbulence real but refused as an event (the everyday air): what is within its
+    # chance offset, and the refused turbulence itself, go behind "none"
+    small.score, small.why_not_first = 0.084, None
+    none = Candidate("none", [], 0, gap_before=0.10, gap_after_heldout=0.10, score=0.10)
+    ranked = RandomEffect(turb, real, floor).credit_steady(
+        sorted([turb, small, large, none], key=lambda c: c.score), accepted=False)
+    assert [c.effect for c in ranked] == ["drogue_lift", "none", "steady_wind", "turbulence"]
+    assert "by chance" in small.why_not_first and "air of every flight" in turb.why_not_first
     # no real turbulence: nothing moves
     small.score = 0.084
     unreal = SigmaEstimate(0.1, 0.1, 0.0, 0.01, False, "within noise")

@@ -216,7 +216,11 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
                     f"no effect earns its place: {sel.stopped}")
     # the evidence's independent pieces, counted in what the selected set leaves
     n_eff = effective_components([evaluate(p, _simulated(sel.chosen), setup) for p in paths])
-    ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff, setup.prior_effects))
+    ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff, setup.prior_effects),
+                                 accepted=sel.chosen is not None and "turbulence" in sel.chosen.effects)
+    if ranking[0] is none and not none.why:
+        none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x the offset the day's air "
+                    f"(turbulence of {turb.estimate.sigma_mps:.2f} m/s) leaves by chance ({turb.steady_floor_m:.3f} m)")
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation's deterministic effects are in
     # (their parameters fitted on all logs): what is left for the next effect to

@@ -54,7 +54,9 @@ components' shift a turbulence of sigma_hat leaves by chance (from the same
 ensemble; over a trail's steady components that is the mean offset over the
 test's window, its low-frequency content). A deterministic candidate is
 credited only when the held-out mean square it explains beats
-`NOISE_FACTOR` times that floor (squared), as a gap beats its noise floor.
+`NOISE_FACTOR` times that floor (squared), as a gap beats its noise floor;
+when the turbulence itself is the everyday air (refused as an event), a
+candidate within that floor ranks behind "none".
 """
 from __future__ import annotations
 
@@ -383,28 +385,42 @@ class RandomEffect:
     steady_floor_m: float
     joint: Candidate | None = None
 
-    def credit_steady(self, ranking: list) -> list:
+    def credit_steady(self, ranking: list, accepted: bool = True) -> list:
         """`ranking` with every deterministic candidate ahead of the turbulence
         whose held-out gain over the baseline, sqrt(g_before^2 - g_after^2), is
         within NOISE_FACTOR x the steady floor moved right behind it (the
         others keep their order): a steady effect must not absorb a random
-        motion. Nothing moves unless the turbulence is real."""
+        motion. When the selection did not accept the turbulence (`accepted`
+        False: the everyday air of a flight, calmer than light), the yardstick
+        stands all the same, but what falls within it goes behind "none" (the
+        first candidate without effects), and so does every candidate with the
+        refused turbulence: the day's air did it by chance, and that is no
+        event. Nothing moves unless the turbulence is real."""
         turb, est = self.candidate, self.estimate
         if est is None or not est.real or turb not in ranking:
             return ranking
+        anchor = turb if accepted else next((c for c in ranking if not c.effects), None)
+        if anchor is None:
+            return ranking
         moved = []
-        for c in ranking[:ranking.index(turb)]:
-            if "turbulence" in c.effects or not c.effects:
+        for c in ranking[:ranking.index(anchor)]:
+            if not c.effects:
+                continue
+            if "turbulence" in c.effects:
+                if not accepted:
+                    c.why_not_first = c.why_not_first or (f"turbulence of {est.sigma_mps:.2f} m/s is the air of every "
+                                                          f"flight, not accepted as an event")
+                    moved.append(c)
                 continue
             gain = math.sqrt(max(c.gap_before ** 2 - c.gap_after_heldout ** 2, 0.0))
             if gain <= NOISE_FACTOR * self.steady_floor_m:
-                c.score = max(c.score, turb.score * (1 + 1e-9))
+                c.score = max(c.score, anchor.score * (1 + 1e-9))
                 c.why_not_first = (f"its held-out gain {gain:.3f} m is within {NOISE_FACTOR:g} x the offset a "
                                    f"turbulence of {est.sigma_mps:.2f} m/s leaves by chance "
                                    f"({self.steady_floor_m:.3f} m)")
                 moved.append(c)
         rest = [c for c in ranking if not any(c is m for m in moved)]
-        at = rest.index(turb) + 1
+        at = rest.index(anchor) + 1
         return rest[:at] + moved + rest[at:]
 
 
