@@ -39,12 +39,17 @@ def _family(selected: dict, ranking_first: dict | None = None):
 
 
 def test_an_entry_keeps_the_selected_set_s_hardware_effects_not_the_day_s():
-    fam = _family({"drogue_lift": {"scale": 0.65}, "steady_wind": {"vertical_mps": -6.0, "lateral_mps": 5.3},
-                   "drogue_reference": {"offset_m": -0.21}},
-                  ranking_first={"turbulence": {"sigma_mps": 1.0, "length_scale_m": 533.4}})
+    selected = {"drogue_lift": {"scale": 0.65}, "steady_wind": {"vertical_mps": -6.0, "lateral_mps": 5.3},
+                "drogue_reference": {"offset_m": -0.21}}
+    fam = _family(selected, ranking_first={"turbulence": {"sigma_mps": 1.0, "length_scale_m": 533.4}})
+    # a steady wind two flights share is the pod's flow angle; the turbulence ranked first is the day's
     e = fleet.entry(fam)
-    assert e == {"effects": {"drogue_lift": {"scale": 0.65}, "drogue_reference": {"offset_m": -0.21}},
-                 "logs": ["L1", "L2"]}
+    assert e == {"effects": selected, "logs": ["L1", "L2"]}
+    # ... one flight's wind is its weather
+    fam.logs = ["L1"]
+    assert fleet.entry(fam) == {"effects": {"drogue_lift": {"scale": 0.65}, "drogue_reference": {"offset_m": -0.21}},
+                                "logs": ["L1"]}
+    assert fleet.of_hardware("steady_wind", 2) and not fleet.of_hardware("turbulence", 4)
     assert fleet.entry(types.SimpleNamespace(ranking=[], selection={"effects": []}, logs=[])) is None
 
 
@@ -127,7 +132,7 @@ def test_the_committed_fleet_is_the_committed_diagnosis_s_hardware():
         chosen = fam["selection"]["effects"]
         top = next(c for c in fam["ranking"] if c["effects"] == chosen)
         params = top["params"] if len(chosen) > 1 else {chosen[0]: top["params"]}
-        want = {e: params[e] for e in chosen if fleet.of_hardware(e)}
+        want = {e: params[e] for e in chosen if fleet.of_hardware(e, len(fam["logs"]))}
         assert set(got.get(name, {})) == set(want), name
         for e, ps in want.items():
             for k, v in ps.items():
