@@ -303,36 +303,42 @@ def _turb(effects, gap_heldout, sigma=1.0, se=0.1):
                      param_stderr={"turbulence": {"sigma_mps": se, "length_scale_m": 0.0}})
 
 
-def test_turbulence_joins_the_selected_set_by_the_same_acceptance_rule():
+def _est(sigma=1.0, se=0.1, real=True):
+    from workbench.diagnosis.turbulence import SigmaEstimate
+    return SigmaEstimate(sigma, se, 0.1, 0.01, real, "" if real else "sigma^2 within 2 standard errors of zero")
+
+
+def test_turbulence_joins_the_selected_set_on_the_evidence_of_its_random_motion():
     sel, g0 = _select({"drogue_lift": 1.0}, floor=0.01, remainder=0.3)
     current = sel.chosen.gap_after_heldout                      # the remainder and the noise: ~0.30 m
-    # the random mean square removed cuts the set's gap to 0.05 m: accepted, a second share
+    alone = _turb(["turbulence"], 0.9 * g0)
+    # real and at least light: it joins, the random mean square it removes its share
     joint = _turb(sel.chosen.effects + ["turbulence"], 0.05)
-    out = SEL.with_random(sel, _turb(["turbulence"], 0.9 * g0), joint, g0, 0.01)
+    out = SEL.with_random(sel, alone, joint, g0, _est())
     assert out.chosen is joint and out.steps[-1]["accepted"]
     assert_allclose(out.chosen.shares["turbulence"], (current - 0.05) / g0, rtol=1e-12)
     assert_allclose(sum(out.chosen.shares.values()), 1.0 - 0.05 / g0, rtol=1e-12)
-    # a cut within the noise is refused: the set stays, both shown among the fitted
+    # a random motion that barely moves the gap (a trail's steady shape and position)
+    # joins all the same: its evidence is the motion, not the gap
     small = _turb(sel.chosen.effects + ["turbulence"], current - 0.5 * NOISE_FACTOR * 0.01)
-    out = SEL.with_random(sel, _turb(["turbulence"], 0.9 * g0), small, g0, 0.01)
-    assert out.chosen is sel.chosen and not out.steps[-1]["accepted"] and small in out.fitted
-    # beside a large steady offset, alone it cuts the baseline's RMS by 1 % (gaps
-    # add in quadrature): still accepted on top of the set
-    out = SEL.with_random(sel, _turb(["turbulence"], 0.99 * g0), _turb(sel.chosen.effects + ["turbulence"], 0.05),
-                          g0, 0.01)
-    assert out.chosen.effects[-1] == "turbulence"
-    # calmer than light even at two standard errors: the air of every flight, refused
+    assert SEL.with_random(sel, alone, small, g0, _est()).chosen is small
+    # no random motion above the noise: refused, the set stays, both shown among the fitted
+    joint = _turb(sel.chosen.effects + ["turbulence"], 0.05)
+    out = SEL.with_random(sel, alone, joint, g0, _est(real=False))
+    assert out.chosen is sel.chosen and not out.steps[-1]["accepted"] and joint in out.fitted
+    assert "no random motion" in joint.why_not_first
+    # calmer than light, even if light lies within two standard errors: the air of every flight
     light = SEL.LIGHT_TURBULENCE_MPS
-    calm = _turb(sel.chosen.effects + ["turbulence"], 0.05, sigma=0.5 * light, se=0.2 * light)
-    out = SEL.with_random(sel, _turb(["turbulence"], 0.9 * g0), calm, g0, 0.01)
+    calm = _turb(sel.chosen.effects + ["turbulence"], 0.05)
+    out = SEL.with_random(sel, alone, calm, g0, _est(0.9 * light, 0.2 * light))
     assert out.chosen is sel.chosen and "calmer than light turbulence" in calm.why_not_first
-    # light within two standard errors: named
-    near = _turb(sel.chosen.effects + ["turbulence"], 0.05, sigma=0.7 * light, se=0.16 * light)
-    assert SEL.with_random(sel, _turb(["turbulence"], 0.9 * g0), near, g0, 0.01).chosen is near
+    # at light: named
+    near = _turb(sel.chosen.effects + ["turbulence"], 0.05)
+    assert SEL.with_random(sel, alone, near, g0, _est(light, 0.2 * light)).chosen is near
     # nothing selected: turbulence alone, against the baseline
     none_sel = SEL.Selection(None, [], [], [], "nothing earned its place")
     alone = _turb(["turbulence"], 0.3 * g0)
-    assert SEL.with_random(none_sel, alone, None, g0, 0.01).chosen is alone
+    assert SEL.with_random(none_sel, alone, None, g0, _est()).chosen is alone
 
 
 def test_effective_components_count_white_noise_fully_and_a_smooth_remainder_as_a_few():

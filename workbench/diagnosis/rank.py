@@ -24,8 +24,9 @@ several at once by forward selection, score each held out and rank them.
    residuals under the log's noise model (`probabilities`), over the
    effective number of held-out components (`effective_components`). Then
    turbulence from its statistics (`turbulence`): joined to the selected set
-   by the same acceptance rule, and a steady effect within the offset it
-   leaves by chance moved behind it. Pairs of screened
+   when its random motion is real and at least light (`select.with_random`),
+   a steady effect within the offset it leaves by chance moved behind it, or
+   behind "none" when it is only the everyday air. Pairs of screened
    effects whose sensitivity patterns are parallel on the logs are recorded as
    not separable (`identify`).
 3. How much: gap before, after on training data, after held out, per log and
@@ -196,7 +197,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     turb = random_candidate(paths, base, sel.chosen, setup, mapper)
     excluded.pop("turbulence", None)
     if turb.candidate.success:
-        sel = with_random(sel, turb.candidate, turb.joint, gap_before_heldout, floor)
+        sel = with_random(sel, turb.candidate, turb.joint, gap_before_heldout, turb.estimate)
     else:
         failed.append(turb.candidate)
     say(f"selection: {'+'.join(sel.chosen.effects) if sel.chosen else 'none'} ({sel.stopped})")

@@ -288,28 +288,32 @@ def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fit
 
 
 def with_random(sel: Selection, alone: Candidate, joint: Candidate | None, gap_before: float,
-                floor: float) -> Selection:
+                estimate) -> Selection:
     """`sel` with the random effect's candidates among the fitted: turbulence
     `alone` (against the baseline) and `joint` (the selected set with it, or
-    None). The acceptance rule of a deterministic step, one new parameter,
-    admits it onto the selected set (none selected: alone) when its sigma is
-    also at least light within its error, sigma + 2 s.e. >=
-    `LIGHT_TURBULENCE_MPS`: the calmer air of every flight keeps its sigma in
-    the ranking but is not named. (A gain against the baseline would not do:
-    gaps add in quadrature, so a random motion beside a large steady offset
-    cuts the baseline's RMS by next to nothing.) Its share is its gain on top
-    of the set over the baseline held-out gap."""
+    None), whose sigma `estimate` (`turbulence.SigmaEstimate`) is the
+    evidence. It joins the selected set (none selected: alone) when its
+    random motion is real (sigma^2 detected at two standard errors from zero,
+    its drogue-band motion above the tracker noise) and at least light,
+    sigma >= `LIGHT_TURBULENCE_MPS` (MIL-HDBK-1797): the calmer air of every
+    flight keeps its sigma in the ranking but is not named. Not by the gap's
+    acceptance rule: a random effect's evidence is the random motion, and the
+    gap's components barely see it (a trail's are its steady shape and
+    position; a 1.2 m/s turbulence on a trail cut them by 0.014 m against a
+    0.043 m bar and was refused), while beside a large steady offset it cuts
+    the RMS by next to nothing (gaps add in quadrature). Its share is its gain
+    on top of the set over the baseline held-out gap."""
     extra = [c for c in (alone, joint) if c is not None]
     current = sel.chosen.gap_after_heldout if sel.chosen else gap_before
     cand = joint if sel.chosen is not None else alone
     if cand is None:
         return dataclasses.replace(sel, fitted=sel.fitted + extra)
     gain = current - cand.gap_after_heldout
-    sigma, se = cand.params["turbulence"]["sigma_mps"], cand.param_stderr["turbulence"]["sigma_mps"]
-    refused = acceptance(gain, 1, current, floor) or (
-        sigma + 2.0 * se < LIGHT_TURBULENCE_MPS
+    sigma, se = estimate.sigma_mps, estimate.stderr_mps
+    refused = ((not estimate.real and f"shows no random motion above the noise: {estimate.why}") or (
+        sigma < LIGHT_TURBULENCE_MPS
         and f"has sigma {sigma:.2f} +/- {se:.2f} m/s, calmer than light turbulence ({LIGHT_TURBULENCE_MPS:g} m/s, "
-            f"MIL-HDBK-1797) even at two standard errors: the air of every flight")
+            f"MIL-HDBK-1797): the air of every flight"))
     k = sel.steps[-1]["step"] + 1 if sel.steps else 1
     step = {"step": k, "added": "turbulence", "candidate": cand.effect, "gap_heldout_before_m": current,
             "gap_heldout_after_m": cand.gap_after_heldout, "gain_m": gain, "new_params": 1,
