@@ -54,6 +54,11 @@ def payout(rec: FlightRecord) -> tuple[np.ndarray, np.ndarray]:
     return t, _lowpass(t, df["length_m"].to_numpy(float), REEL_CUTOFF_HZ)
 
 
+# The drogue's steady position before contact is read over this window (s),
+# in the log and in the model alike, so the two are placed on the same span.
+PRE_CONTACT_S = 3.0
+
+
 def contact_window(rec: FlightRecord) -> tuple[float, float]:
     """(contact, disconnect) of an engagement: a log without contact is refused,
     one without disconnect is held to its end (inf)."""
@@ -72,7 +77,8 @@ def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray, stiffness:
     The probe track (no dropouts) carries the motion; the drogue centre sits at
     a fixed offset from the probe tip once engaged, measured as the median of
     (drogue - probe) over the engaged fixes the optical tracker kept. The
-    steady position is the median of the valid fixes in the 3 s before contact.
+    steady position is the median of the valid fixes in the PRE_CONTACT_S
+    before contact.
     `stiffness` and `damping` are the probe coupling's (see EndConstraint)."""
     t_on, t_off = contact_window(rec)
     probe = rec.topic("/receiver/probe")
@@ -82,7 +88,7 @@ def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray, stiffness:
     td_all = fixes.index.to_numpy(float)
     dd_all = fixes[["x_m", "y_m", "z_m"]].to_numpy(float)
     ok = (td_all >= t_on + 0.5) & (td_all <= min(t_off, tp[-1]) - 0.5)
-    pre = (td_all >= t_on - 3.0) & (td_all < t_on)
+    pre = (td_all >= t_on - PRE_CONTACT_S) & (td_all < t_on)
     if ok.sum() < 5 or pre.sum() < 5:
         raise LogError(rec.path, "topic /ors/drogue",
                        "too few valid fixes around contact to place the drogue on the probe")

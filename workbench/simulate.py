@@ -4,8 +4,10 @@
 a case means the same model whichever verb flies it. The model is built once
 with its end free, solved for its steady trail, and, when the case holds the
 drogue on the probe from the log (`[model] drogue_after_contact = "from_log"`),
-rebuilt with that end constraint (placed from the steady drogue): no model is
-changed after construction.
+rebuilt with that end constraint: no model is changed after construction.
+The held path is placed on where this model's drogue is just before contact,
+so a drogue moved before contact (a reel taking up, a tow point drifting) is
+held where it got to, not snapped back to the trail at the run's start.
 """
 from __future__ import annotations
 
@@ -13,6 +15,9 @@ import dataclasses
 import time
 from typing import Mapping
 
+import numpy as np
+
+from solver.effects import EFFECTS
 from solver.integrate import simulate
 from solver.model import Model
 from solver.result import SimulationResult
@@ -85,6 +90,31 @@ def run_duration(case: Case, record=None) -> float:
     return float(record.topic("/ors/drogue").index[-1])
 
 
+def _held_from_contact(case: Case, model: Model, record, s0: State, dt: float, hardware,
+                       variant: Mapping | None):
+    """The probe-held end constraint, placed on this model's own drogue over
+    the log's pre-contact window (`log_inputs.PRE_CONTACT_S`): the model runs
+    free to contact under its deterministic inputs. Seeded (random) effects are
+    left out of that run, so where the drogue is held does not depend on one
+    draw of the turbulence: the log's pre-contact median averages its own."""
+    t_on, _ = log_inputs.contact_window(record)
+    t0 = float(model.tow.t[0])
+    if t_on <= t0 + dt:
+        return log_inputs.probe_held_drogue(case, model, record, s0.pos[-1])
+    seeded = [name for name, eff in EFFECTS.items() if "seed" in eff.params]
+    random_on = any(name in case.tables.get("effects", {}) for name in seeded)
+    free, start = model, s0
+    if random_on:
+        tables = dict(case.tables)
+        tables["effects"] = {k: v for k, v in tables["effects"].items() if k not in seeded}
+        free = build_model(dataclasses.replace(case, tables=tables), hardware=hardware, record=record,
+                           variant=dict(variant or {}))
+        start = solve_static(free, t0)
+    pre = simulate(free, t_on, start, record_dt=dt)
+    window = pre.t >= t_on - log_inputs.PRE_CONTACT_S
+    return log_inputs.probe_held_drogue(case, model, record, np.median(pre.end_xyz[window], axis=0))
+
+
 def simulate_case(case: Case, record=None, variant: Mapping | None = None, effects: Mapping | None = None,
                   duration: float | None = None, until: float | None = None, record_dt: float | None = None,
                   hardware=None) -> Simulation:
@@ -115,8 +145,7 @@ def simulate_case(case: Case, record=None, variant: Mapping | None = None, effec
     if t_end == t0:
         return Simulation(case, model, s0, None, model_options(case, model), static_s, 0.0)
     if case["model"]["drogue_after_contact"] == "from_log" and record is not None:
-        # the held path starts at this model's own steady drogue, known only now
-        model = dataclasses.replace(model, end=log_inputs.probe_held_drogue(case, model, record, s0.pos[-1]))
+        model = dataclasses.replace(model, end=_held_from_contact(case, model, record, s0, dt, hardware, variant))
     clock = time.perf_counter()
     res = simulate(model, t_end, s0, record_dt=dt)
     run_s = time.perf_counter() - clock

@@ -14,7 +14,9 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from workbench.diagnosis import selftest as S
-from workbench.diagnosis.evaluate import evaluate, gap, reproducibility_weight, reproducibility_weights, unweighted
+from flighttest.residual import Residual
+from workbench.diagnosis.evaluate import (evaluate, gap, pooled_spread, reproducibility_weight, reproducibility_weights,
+                                          unweighted)
 from workbench.diagnosis.fit import EffectCalibrator
 from workbench.diagnosis.select import score_candidate
 from workbench.diagnosis.setup import Setup, freeze
@@ -27,20 +29,44 @@ EXACT = 1e-12   # the same arithmetic on equal inputs
 @settings(max_examples=60, deadline=None)
 @given(f=st.lists(st.floats(1e-4, 1.0), min_size=1, max_size=20),
        m=st.lists(st.floats(0.0, 10.0), min_size=20, max_size=20))
-def test_a_perfect_model_keeps_the_log_s_floor_under_the_weights(f, m):
+def test_a_perfect_model_keeps_the_log_s_floor_where_it_reproduces_and_leaves_the_rest_out(f, m):
     f, m = np.array(f), np.array(m[:len(f)])
     w = reproducibility_weight(f, m)
-    assert np.all((w > 0) & (w <= 1))
+    kept = m <= f
+    assert np.all(w[kept] > 0) and np.all(w[kept] <= 1) and np.all(w[~kept] == 0.0)
     assert np.all(w[m == 0] == 1.0)
     # a perfect model's residual has variance f^2 + m^2; weighted, the log's own f^2
-    assert_allclose(w ** 2 * (f ** 2 + m ** 2), f ** 2, rtol=1e-12)
+    assert_allclose(w[kept] ** 2 * (f[kept] ** 2 + m[kept] ** 2), f[kept] ** 2, rtol=1e-12)
 
 
-@pytest.fixture(scope="module")
-def engagement(tmp_path_factory):
+def _residual(r, channel, t):
+    n = len(r)
+    return Residual(np.asarray(r, float), np.full(n, 0.01), np.asarray(channel, dtype=object), np.full(n, np.nan),
+                    np.full(n, "engaged", dtype=object), np.asarray(t, float), np.zeros(n, int),
+                    np.full(n, "band", dtype=object), (np.zeros(0), np.zeros((0, 3))), None, None)
+
+
+def test_a_departure_its_own_pair_cancels_takes_the_spread_of_its_time_neighbours():
+    # channel a: component 3's +/- pair is odd (a chaotic departure still growing in
+    # proportion to the change), its later neighbours' pairs are not; channel b spreads nowhere
+    t = np.tile(np.arange(6.0), 2)
+    channel = ["a"] * 6 + ["b"] * 6
+    base = _residual(np.zeros(12), channel, t)
+    plus = np.array([0, 0, 0, 0.02, 0.30, 0.10, 0, 0, 0, 0, 0, 0])
+    minus = np.array([0, 0, 0, -0.02, -0.10, 0.30, 0, 0, 0, 0, 0, 0])
+    m = pooled_spread(base, [plus, minus])
+    own = np.sqrt(4.0 / 3.0) * np.abs(0.5 * (plus + minus))     # `irreproducible`, a single pair
+    assert_allclose(m[3], own[5], rtol=EXACT)                    # the envelope two steps on
+    assert_allclose(m[:2], 0.0, atol=EXACT)                      # more than two steps before: none
+    assert_allclose(m[6:], 0.0, atol=EXACT)                      # another channel never pools
+
+
+@pytest.fixture(scope="module", params=[355781145, 11, 44])
+def engagement(request, tmp_path_factory):
     """An own-model engagement: after disconnect the released drogue and the
-    slack hose whip, and the model's realisation of that depends on anything."""
-    path, _ = S.generate("engagement", "sensor_lag", 355781145, tmp_path_factory.mktemp("eng"))
+    slack hose whip, and the model's realisation of that depends on anything.
+    Three draws: the measure has to hold for a log, not for one realisation."""
+    path, _ = S.generate("engagement", "sensor_lag", request.param, tmp_path_factory.mktemp("eng"))
     return str(path)
 
 
@@ -52,8 +78,12 @@ def test_an_imperceptible_change_moves_the_diagnosis_s_gap_by_far_less_than_its_
     assert np.ptp(weighted) < 0.1 * floor
     w = reproducibility_weights(engagement, setup)
     R = unweighted(engagement, {}, setup)
-    assert np.min(w[R.phase == "disconnect"]) < 0.5          # the whipping drogue weighs little ...
-    assert np.all(w[R.phase == "approach"] > 0.9)            # ... the steady trail before contact in full
+    assert np.min(w[R.phase == "disconnect"]) == 0.0         # the whipping drogue is left out ...
+    assert np.all(w[R.phase == "approach"] > 0.9)            # ... the steady trail before contact weighs in full
+    # what is left out is left out of the floor the gap is judged against as well
+    E = evaluate(engagement, {}, setup)
+    assert_allclose(E.floor[w == 0], 0.0, atol=EXACT)
+    assert_allclose(E.floor[w > 0], R.floor[w > 0], rtol=EXACT)
 
 
 def test_one_log_s_parameters_fit_the_whole_log_at_least_as_well_as_either_fold_s(tmp_path):

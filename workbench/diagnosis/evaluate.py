@@ -10,7 +10,8 @@ would chase the realisation (on an own-model engagement a lift of 1.002
 against 1.000 cut the gap by 15 %, on both halves of the log, and any effect
 fitted was credited with it). The model's spread under such imperceptible
 changes (`model_spread`) is added to the log's noise for those components,
-which keeps a perfect model's weighted gap at the log's floor. The gap (one
+which keeps a perfect model's weighted gap at the log's floor; a component
+that spreads by more than the log's noise is left out, floor and all. The gap (one
 scalar per log, in metres; a family's is the RMS over its logs) is the RMS
 of the weighted components; a gap within `NOISE_FACTOR` times its noise
 floor is noise. Its components' time segments are the blocks the
@@ -116,19 +117,44 @@ REPRODUCIBILITY_PROBES = (("drogue_lift", "scale", 1.001), ("drogue_lift", "scal
 
 def irreproducible(base, probes) -> np.ndarray:
     """The spread (m) of two independent realisations of the model, per
-    component, from the `base` run's residual and the `probes`' (consecutive
+    component, from the `base` run's residual and the `probes'` (consecutive
     +/- pairs, None for one that failed): a smooth response to a probe is
     odd in its sign and cancels in each pair's mean; what is left of the mean's
     departure from the base, d, is realisation, of variance 3/4 of that of two
-    realisations' difference. RMS over the pairs; zeros without a whole pair."""
+    realisations' difference. RMS over the pairs; zeros without a whole pair.
+    What the turbulence test leaves out bins by, against a bin mean's tracker
+    noise, which is far below a probe's smooth response."""
     d2 = [(0.5 * (a + b) - base) ** 2 for a, b in zip(probes[0::2], probes[1::2]) if a is not None and b is not None]
     return np.sqrt(4.0 / 3.0 * np.mean(d2, axis=0)) if d2 else np.zeros_like(base)
+
+
+# Time neighbours either side of a component its spread is pooled over: one
+# realisation's departure passes through zero now and then while its envelope
+# does not, and a +/- pair's mean cancels a chaotic departure where it still
+# grows in proportion to the change; its neighbours show what it grows into.
+POOL_NEIGHBOURS = 2
+
+
+def pooled_spread(base, probes) -> np.ndarray:
+    """`irreproducible` per component of the `base` Residual under the
+    `probes'` residual vectors, each component then given the largest of its
+    own and its `POOL_NEIGHBOURS` time neighbours' on either side (same
+    channel, station and band): the envelope of the realisation's spread."""
+    m = irreproducible(base.r, probes)
+    pooled = np.empty_like(m)
+    key = np.array([f"{c}|{s!r}|{b}" for c, s, b in zip(base.channel, base.station, base.band)], dtype=object)
+    for k in np.unique(key):
+        idx = np.flatnonzero(key == k)
+        idx = idx[np.argsort(base.t[idx], kind="stable")]
+        padded = np.pad(m[idx], POOL_NEIGHBOURS, mode="edge")
+        pooled[idx] = np.lib.stride_tricks.sliding_window_view(padded, 2 * POOL_NEIGHBOURS + 1).max(axis=1)
+    return pooled
 
 
 @functools.lru_cache(maxsize=16)
 def model_spread(path: str, setup: Setup) -> np.ndarray:
     """Per residual component, the model's own irreproducibility (m) about
-    the baseline (`irreproducible` under `REPRODUCIBILITY_PROBES`, each
+    the baseline (`pooled_spread` under `REPRODUCIBILITY_PROBES`, each
     relative to the setup's prior value)."""
     runs = []
     for effect, name, factor in REPRODUCIBILITY_PROBES:
@@ -136,18 +162,21 @@ def model_spread(path: str, setup: Setup) -> np.ndarray:
             runs.append(unweighted(path, {effect: {name: setup.off(effect, name) * factor}}, setup).r)
         except SimulationFailed:
             runs.append(None)
-    return irreproducible(unweighted(path, {}, setup).r, runs)
+    return pooled_spread(unweighted(path, {}, setup), runs)
 
 
 def reproducibility_weight(floor, spread) -> np.ndarray:
-    """w = f / sqrt(f^2 + m^2) per component, f the log's noise floor and m
-    the model's spread: a perfect model leaves w r with the log's own floor f
-    (w^2 (f^2 + m^2) = f^2), so the gap keeps its metres and its floor, while
-    components the model cannot reproduce weigh as little as they inform;
-    1 where the model does not spread at all."""
+    """Per component, f the log's noise floor and m the model's spread:
+    w = f / sqrt(f^2 + m^2) where m <= f, so a perfect model leaves w r with
+    the log's own floor f (w^2 (f^2 + m^2) = f^2) and the gap keeps its
+    metres; 0 where m > f, a component the model reproduces worse than the
+    log measures it: weighted down only, it would still add a random draw of
+    the floor's size to the gap, which moves under any change at all (an
+    engagement's gap by a sixth of its floor under a lift change of 1e-3).
+    Such a component is left out of the floor as well (`evaluate`)."""
     f, m = np.asarray(floor, float), np.asarray(spread, float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(m > 0, f / np.sqrt(f ** 2 + m ** 2), 1.0)
+        return np.where(m > f, 0.0, np.where(m > 0, f / np.sqrt(f ** 2 + m ** 2), 1.0))
 
 
 def reproducibility_weights(path: str, setup: Setup) -> np.ndarray:
@@ -159,12 +188,14 @@ def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
     """The residual of the log at `path` against the baseline with `effects`
     ({name: {param: value}}; comparison-only ones act on the comparison),
     each component weighted by the model's reproducibility there
-    (`reproducibility_weights`; the floors stay the log's). Raises
+    (`reproducibility_weights`; the floors stay the log's, but for the
+    components left out, whose floor is left out with them). Raises
     `SimulationFailed` when the simulation fails. The setup's prior
     (`Setup.prior_effects`) is under them: a candidate's effect replaces the
     prior's parameters it names, the others stay at the prior's values."""
     R = unweighted(path, effects, setup)
-    return dataclasses.replace(R, r=R.r * reproducibility_weights(path, setup))
+    w = reproducibility_weights(path, setup)
+    return dataclasses.replace(R, r=R.r * w, floor=np.where(w > 0, R.floor, 0.0))
 
 
 # a residual's gap (m) is the RMS of its components
