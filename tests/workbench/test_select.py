@@ -366,8 +366,9 @@ def test_effective_components_count_white_noise_fully_and_a_smooth_remainder_as_
     rng = np.random.default_rng(8)
     n, rho = 4000, 0.9
 
-    def res(r):
-        return types.SimpleNamespace(r=r, channel=np.full(len(r), "drogue z"))
+    def res(r, floor=None):
+        return types.SimpleNamespace(r=r, channel=np.full(len(r), "drogue z"),
+                                     floor=np.full(len(r), 0.01) if floor is None else floor)
     white = rng.normal(0.0, 0.01, n)
     ar = np.zeros(n)
     for i in range(1, n):
@@ -379,6 +380,10 @@ def test_effective_components_count_white_noise_fully_and_a_smooth_remainder_as_
     # a constant offset is one piece of evidence; channels and logs add up
     assert_allclose(effective_components([res(np.full(50, 0.2))]), 1.0)
     assert_allclose(effective_components([res(np.full(50, 0.2)), res(white)]), 1.0 + n, rtol=0.05)
+    # components left out as irreproducible (weight and floor 0) are no evidence
+    out = np.arange(n) % 4 == 0
+    assert_allclose(effective_components([res(np.where(out, 0.0, white), np.where(out, 0.0, 0.01))]),
+                    effective_components([res(white[~out])]), rtol=1e-12)
 
 
 # ---------------------------------------------------------------- which addition a step takes

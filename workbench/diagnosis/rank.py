@@ -97,11 +97,12 @@ def effective_components(residuals) -> float:
     lag-1 autocorrelation of its components in their order (time, then
     station), at least one; Bartlett's effective sample size of an AR(1)
     series (Zwiers & von Storch 1995). A model-form remainder is smooth, so
-    hundreds of its components carry the evidence of a few."""
+    hundreds of its components carry the evidence of a few. Components left
+    out as irreproducible (floor 0, `evaluate`) are no evidence."""
     n = 0.0
     for R in residuals:
         for ch in np.unique(R.channel):
-            x = R.r[R.channel == ch]
+            x = R.r[(R.channel == ch) & (R.floor > 0)]
             if len(x) < 3 or not np.any(x):
                 n += len(x)
                 continue
