@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from workbench.diagnosis import selftest as S
 from flighttest.residual import Residual
+from workbench.diagnosis import selftest as S
 from workbench.diagnosis.evaluate import (evaluate, gap, pooled_spread, reproducibility_weight, reproducibility_weights,
                                           unweighted)
 from workbench.diagnosis.fit import EffectCalibrator
