@@ -38,7 +38,8 @@ def _synthetic(calls):
         r = (np.sin(k * T) * math.log(d / TRUTH["drogue_drag"]["scale"])
              + np.cos(0.7 * k * T) * (w - TRUTH["tanker_wake"]["strength"]) * (1.0 + 0.1 * w)
              + np.random.default_rng(len(path)).normal(0.0, NOISE_M, T.size))
-        return types.SimpleNamespace(r=r, segment=np.zeros(T.size, int))
+        return types.SimpleNamespace(r=r, segment=np.zeros(T.size, int), floor=np.full(T.size, NOISE_M),
+                                     channel=np.full(T.size, "drogue z"))
     return evaluate
 
 
@@ -242,6 +243,61 @@ def test_the_selected_set_ranks_first_then_the_near_misses_by_score_with_probabi
     expect = probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking], 0.01, 200)
     assert [c.probability for c in ranking] == expect
     assert_allclose(sum(expect), 1.0, rtol=1e-12)
+
+
+def _held(r):
+    return [F.Components(np.asarray(r, float), np.full(len(r), NOISE_M), np.full(len(r), "drogue z"))]
+
+
+def _cand(effects, r, n_params=1):
+    r = np.asarray(r, float)
+    return Candidate("+".join(effects) or "none", list(effects), n_params, gap_after_heldout=float(np.sqrt(np.mean(r ** 2))),
+                     held_out=_held(r))
+
+
+def test_candidates_apart_by_a_smooth_pattern_within_the_noise_share_the_probability():
+    from workbench.diagnosis.rank import separating_components
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 10.0, 400)
+    remainder = 0.05 * np.sin(0.9 * t) + rng.normal(0.0, NOISE_M, t.size)   # model form and noise
+    # two fits absorbing the same remainder, apart by a smooth pattern: gaps 0.0372 and
+    # 0.0390 m, within the 0.01 m floor of each other
+    a = _cand(["drogue_lift"], remainder)
+    b = _cand(["steady_wind"], remainder + 0.015 * np.sin(0.4 * t + 1.0), n_params=2)
+    n_ab = separating_components(b, a, 400.0)
+    assert n_ab < 40.0        # a few dozen pieces of evidence at most, not 400 (measured: 15)
+    pa, pb = probabilities([a.gap_after_heldout, b.gap_after_heldout], [1, 2], NOISE_M, [400.0, n_ab])
+    assert 0.05 < pb < pa     # the gap and the parameter count favour a, not decisively
+    # the same gaps counted over every component, as one count for all: all but certain
+    assert probabilities([a.gap_after_heldout, b.gap_after_heldout], [1, 2], NOISE_M, 400.0)[1] < 1e-6
+    # apart by white noise of the floor's size, nearly every component is evidence
+    c = _cand(["drogue_drag"], remainder + rng.normal(0.0, NOISE_M, t.size))
+    assert separating_components(c, a, 400.0) > 200.0
+    # no held-out components kept (a candidate built elsewhere): the count given
+    assert separating_components(Candidate("x", ["x"], 1), a, 123.0) == 123.0
+
+
+def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_sets_weight():
+    from workbench.diagnosis.rank import random_presence
+    light = SEL.LIGHT_TURBULENCE_MPS
+    assert random_presence(_est(light, 0.1)) == pytest.approx(0.5)
+    assert random_presence(_est(light + 0.2, 0.1)) == pytest.approx(0.97725, abs=1e-5)   # Phi(2)
+    assert random_presence(_est(2.0, 0.1, real=False)) == 0.0 and random_presence(None) == 0.0
+    sel, g0 = _select({"drogue_lift": 1.0}, floor=0.01, remainder=0.3)
+    # the random mean square removed from the set's residual is no smaller residual: the joint
+    # candidate's lower gap does not take the weight, the presence decides its share
+    joint = _turb(sel.chosen.effects + ["turbulence"], 0.05)
+    sel = SEL.with_random(sel, _turb(["turbulence"], 0.3 * g0), joint, g0, _est(light, 0.2 * light))
+    p = random_presence(_est(light - 0.1, 0.1))
+    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200, presence=p)
+    det = [c for c in ranking if "turbulence" not in c.effects]
+    plain = dict(zip((c.effect for c in det), probabilities([c.gap_after_heldout for c in det],
+                                                            [c.n_params for c in det], 0.01, 200)))
+    by = {c.effect: c for c in ranking}
+    assert_allclose(by[joint.effect].probability, p * plain["drogue_lift"], rtol=1e-12)
+    assert_allclose(by["drogue_lift"].probability, (1 - p) * plain["drogue_lift"], rtol=1e-12)
+    assert_allclose(by["turbulence"].probability, p * plain["none"], rtol=1e-12)
+    assert_allclose(sum(c.probability for c in ranking), 1.0, rtol=1e-12)
 
 
 def test_none_ranks_first_when_nothing_is_selected():

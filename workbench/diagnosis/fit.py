@@ -11,7 +11,7 @@ runner-up too. `fit(parts, start={effect: {param: value}})` warm-starts it
 (forward selection adding an effect to a fitted set): the parameters given
 stay at their start values on the grid, which spans only the others, and the
 least squares then polishes all of them together. `score(parts)` is the
-held-out gap at the fitted parameters.
+held-out gap at the fitted parameters, `held_out(parts)` its components.
 A part is a log path, or (path, segment) for one of its alternate time
 blocks; `LeaveOneLogOut` and `TimeBlocks` split a family into folds of parts.
 
@@ -48,6 +48,32 @@ def _part(p: Part) -> tuple[str, int | None]:
     return (str(p[0]), p[1]) if isinstance(p, tuple) else (str(p), None)
 
 
+@dataclasses.dataclass(frozen=True)
+class Components:
+    """One part's residual components under some effects: `r` and `floor`
+    (m) and `channel`, as in `flighttest.residual.Residual`; what a fold
+    held out, kept to compare candidates on the same components
+    (`rank.separating_components`)."""
+
+    r: np.ndarray
+    floor: np.ndarray
+    channel: np.ndarray
+
+
+def components(part: Part, effects: dict, setup: Setup) -> Components:
+    """`part`'s residual components simulated with `effects`."""
+    path, seg = _part(part)
+    R = evaluate(path, effects, setup)
+    keep = slice(None) if seg is None else R.segment == seg
+    return Components(R.r[keep], R.floor[keep], R.channel[keep])
+
+
+def baseline_held_out(paths: Sequence[str], setup: Setup) -> list[Components]:
+    """The baseline's components on every fold's held-out parts, in the order
+    a candidate's `held_out` lists them (the folds of `splitter_for`)."""
+    return [components(part, {}, setup) for fold in splitter_for(paths).split(paths) for part in fold.test]
+
+
 def effects_at(candidate: tuple, x) -> dict:
     """{effect: {param: value}} of `candidate` at the parameter vector `x`."""
     out: dict = {}
@@ -79,12 +105,7 @@ class EffectCalibrator:
         return ordered(self.effects)
 
     def _residual(self, parts, effects: dict) -> np.ndarray:
-        out = []
-        for part in parts:
-            path, seg = _part(part)
-            R = evaluate(path, effects, self.setup)
-            out.append(R.r if seg is None else R.r[R.segment == seg])
-        return np.concatenate(out)
+        return np.concatenate([components(part, effects, self.setup).r for part in parts])
 
     def fit(self, parts: Sequence[Part], start: dict | None = None) -> "EffectCalibrator":
         """Fit on `parts`; `start` ({effect: {param: value}}) holds parameters
@@ -165,6 +186,10 @@ class EffectCalibrator:
     def part_gaps(self, parts: Sequence[Part]) -> list[float]:
         """The gap of each part at the fitted parameters."""
         return [gap(self._residual([p], self.params_)) for p in parts]
+
+    def held_out(self, parts: Sequence[Part]) -> list[Components]:
+        """Each part's residual components at the fitted parameters."""
+        return [components(part, self.params_, self.setup) for part in parts]
 
     def score(self, parts: Sequence[Part]) -> float:
         """The held-out gap on `parts` at the fitted parameters (a family's:

@@ -20,9 +20,14 @@ several at once by forward selection, score each held out and rank them.
    held-out gap is within the noise floor of its own. An explanation names
    its events apart from model form and from calibrations within a data
    sheet's tolerance (`explanation`).
-   Each ranked candidate carries a probability: Akaike weights of the held-out
-   residuals under the log's noise model (`probabilities`), over the
-   effective number of held-out components (`effective_components`). Then
+   Each ranked candidate carries a probability: the deterministic ones Akaike
+   weights of their held-out residuals under the log's noise model
+   (`probabilities`), each against the best over the effective number of
+   held-out components in which the two differ (`separating_components`); a set with turbulence shares its deterministic
+   set's weight by the probability that the random motion is real and at
+   least light (`random_presence`, `with_random_share`): a random effect
+   leaves the residual as it is and adds variance, so its lower "gap" is no
+   like-for-like evidence against the deterministic sets. Then
    turbulence from its statistics (`turbulence`): joined to the selected set
    when its random motion is real and at least light (`select.with_random`),
    a steady effect within the offset it leaves by chance moved behind it, or
@@ -50,15 +55,15 @@ from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
 from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.findings import findings
-from workbench.diagnosis.fit import splitter_for
+from workbench.diagnosis.fit import Components, baseline_held_out, splitter_for
 from workbench.diagnosis.identify import not_separable
 from workbench.diagnosis.remainder import remainder
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, forward_select, with_random
 from workbench.diagnosis import fleet
-from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
-                                       Setup, applicable, calibrated_params, family_of, freeze)
+from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
+                                       NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of, freeze)
 from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
@@ -111,22 +116,70 @@ def effective_components(residuals) -> float:
     return n
 
 
-def probabilities(gaps, n_params, floor: float, n: float) -> list[float]:
-    """Akaike weights of candidates from their held-out gaps (RMS, m) over `n`
-    effective held-out residual components (`effective_components`):
-    -2 ln L = n g^2 / s^2 under Gaussian noise of variance s^2 = max(floor^2, g_min^2) (the log's noise, widened to the best
+def probabilities(gaps, n_params, floor: float, n) -> list[float]:
+    """Akaike weights of candidates from their held-out gaps (RMS, m), the
+    best's g_min, over `n` effective held-out residual components (one count
+    for all, or one per candidate: `separating_components`):
+    -2 ln L = n (g^2 - g_min^2) / s^2 under Gaussian noise of variance
+    s^2 = max(floor^2, g_min^2) (the log's noise, widened to the best
     candidate's misfit when that is larger, so a model-form remainder is not
     read as evidence; Burnham & Anderson's quasi-likelihood), plus 2 per
     parameter. They sum to 1 over the candidates given."""
     g = np.asarray(gaps, float)
-    s2 = max(floor ** 2, float(np.min(g)) ** 2, 1e-300)
-    aic = n * g ** 2 / s2 + 2.0 * np.asarray(n_params, float)
+    g_min = float(np.min(g))
+    s2 = max(floor ** 2, g_min ** 2, 1e-300)
+    aic = np.asarray(n, float) * (g ** 2 - g_min ** 2) / s2 + 2.0 * np.asarray(n_params, float)
     w = np.exp(-0.5 * (aic - aic.min()))
     return (w / w.sum()).tolist()
 
 
+def separating_components(c: Candidate, best: Candidate, n: float) -> float:
+    """How many independent pieces of held-out evidence tell `c` from `best`:
+    the effective count (`effective_components`) of the difference of their
+    squared held-out residuals, component by component. Two fits that differ
+    by a smooth pattern (a steady wind standing in for a drag change, both
+    absorbing the same model-form remainder) differ in a few pieces however
+    many components the logs hold; white differences count one each. `n`
+    (the count of the selected set's residual) where either has no held-out
+    components kept, or they are not the same components."""
+    a, b = c.held_out, best.held_out
+    if c is best or a is None or b is None or len(a) != len(b) or any(len(x.r) != len(y.r) for x, y in zip(a, b)):
+        return n
+    return effective_components([Components(x.r ** 2 - y.r ** 2, x.floor, x.channel) for x, y in zip(a, b)])
+
+
+def random_presence(estimate) -> float:
+    """The probability that the turbulence `estimate` (`turbulence.SigmaEstimate`,
+    or None) measured is an event: 0 unless its random motion is real (the
+    selection's detection, `select.with_random`), else that sigma is at least
+    light (`LIGHT_TURBULENCE_MPS`), Phi((sigma_hat - light) / its standard
+    error) under the estimate's Gaussian error."""
+    if estimate is None or not estimate.real or not estimate.stderr_mps > 0:
+        return 0.0
+    z = (estimate.sigma_mps - LIGHT_TURBULENCE_MPS) / estimate.stderr_mps
+    return 0.5 * math.erfc(-z / math.sqrt(2.0))
+
+
+def with_random_share(ranking: list, weights: dict, presence: float) -> None:
+    """Set every candidate's probability from `weights` ({id: Akaike weight}
+    of the deterministic candidates, summing to 1): a candidate with
+    turbulence takes `presence` of its deterministic set's weight (found in
+    `ranking` by its effects; "none" for turbulence alone), which keeps the
+    rest; one whose deterministic set is not ranked gets 0."""
+    by_set = {tuple(c.effects): c for c in ranking if "turbulence" not in c.effects}
+    for c in ranking:
+        c.probability = weights.get(id(c), 0.0)
+    for c in ranking:
+        if "turbulence" in c.effects:
+            d = by_set.get(tuple(e for e in c.effects if e != "turbulence"))
+            w = weights.get(id(d), 0.0) if d is not None else 0.0
+            c.probability = w * presence
+            if d is not None:
+                d.probability -= c.probability
+
+
 def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: float,
-                   prior: dict | None = None) -> list:
+                   prior: dict | None = None, presence: float = 0.0) -> list:
     """The ranking of what forward selection fitted: the selected set first,
     then the other candidates by score (held-out gap x (1 + `PARAM_PENALTY`
     per parameter)), `none` last; `none` first when no set was selected. Then
@@ -134,7 +187,10 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     each candidate gets the events it names (`explanation.explain`, about
     the setup's `prior` where it has one) and its
     probability over the `n_heldout` held-out residual components
-    (`probabilities`)."""
+    (`probabilities` among the deterministic candidates, each against the
+    best on the evidence that separates them, `separating_components`; a set with
+    turbulence taking `presence` of its deterministic set's weight:
+    `with_random_share`)."""
     for c in sel.fitted:
         c.score = c.gap_after_heldout * (1 + PARAM_PENALTY * c.n_params)
     others = sorted((c for c in sel.fitted if c is not sel.chosen), key=lambda c: c.score)
@@ -142,9 +198,11 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     ranking = plausible_first(ranking, floor)
     for c in ranking:
         c.named, c.calibrations = explain(c.effects, c.params, prior)
-    for c, w in zip(ranking, probabilities([c.gap_after_heldout for c in ranking], [c.n_params for c in ranking],
-                                           floor, n_heldout)):
-        c.probability = w
+    det = [c for c in ranking if "turbulence" not in c.effects]
+    best = min(det, key=lambda c: c.gap_after_heldout)
+    weights = probabilities([c.gap_after_heldout for c in det], [c.n_params for c in det], floor,
+                            [separating_components(c, best, n_heldout) for c in det])
+    with_random_share(ranking, {id(c): w for c, w in zip(det, weights)}, presence)
     return ranking
 
 
@@ -211,14 +269,15 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         c.screen_share = {e: scores.get(e) for e in c.effects}
     none = Candidate("none", [], 0, gap_before=gap_before_heldout if len(paths) == 1 else gap_before,
                      gap_after_train=gap_before_train, gap_after_heldout=gap_before_heldout, shrink_heldout=0.0,
-                     score=gap_before_heldout)
+                     score=gap_before_heldout, held_out=baseline_held_out(paths, setup))
     within_noise = gap_before <= NOISE_FACTOR * floor
     if sel.chosen is None:
         none.why = ("the baseline explains the logs to within their noise" if within_noise else
                     f"no effect earns its place: {sel.stopped}")
     # the evidence's independent pieces, counted in what the selected set leaves
     n_eff = effective_components([evaluate(p, _simulated(sel.chosen), setup) for p in paths])
-    ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff, setup.prior_effects),
+    ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff, setup.prior_effects,
+                                                random_presence(turb.estimate)),
                                  accepted=sel.chosen is not None and "turbulence" in sel.chosen.effects)
     if ranking[0] is none and not none.why:
         none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x the offset the day's air "

@@ -47,6 +47,9 @@ class Candidate:
     calibrations: Optional[dict] = None   # {effect: why it is a calibration within its data sheet's tolerance}
     success: bool = True
     message: str = ""
+    # every fold's held-out residual components (`fit.Components`), in fold order:
+    # the evidence that tells two candidates apart (not written to the json)
+    held_out: Optional[list] = dataclasses.field(default=None, repr=False)
 
     def to_json(self) -> dict:
         """The diagnosis.json entry: a single effect's parameters without the

@@ -69,11 +69,12 @@ def score_candidate(job) -> Candidate:
 
 
 def _fit_and_score(paths, candidate, setup, warm, n_params, t_start) -> Candidate:
-    folds, fitted = [], []
+    folds, fitted, held_out = [], [], []
     for i, fold in enumerate(splitter_for(paths).split(paths)):
         cal = EffectCalibrator(candidate, setup).fit(fold.train, start=warm and warm["folds"][i])
         folds.append({"held_out": fold.label, "params": cal.x_, "gap_train": cal.gap_train_,
                       "gap_heldout": cal.score(fold.test)})
+        held_out += cal.held_out(fold.test)
         fitted.append(cal)
     if len(paths) == 1:
         # one log: the parameters are whichever of the two folds' values and
@@ -93,7 +94,8 @@ def _fit_and_score(paths, candidate, setup, warm, n_params, t_start) -> Candidat
                      param_stderr=full.stderr_,
                      gap_after_train=gap([f["gap_train"] for f in folds]),
                      gap_after_heldout=gap([f["gap_heldout"] for f in folds]),
-                     gap_after_all_fit_per_log=per_log, folds=folds, wall_s=time.perf_counter() - t_start)
+                     gap_after_all_fit_per_log=per_log, folds=folds, held_out=held_out,
+                     wall_s=time.perf_counter() - t_start)
 
 
 def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str | None:
