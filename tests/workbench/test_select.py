@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from workbench.diagnosis import fit as F
@@ -83,12 +85,30 @@ def test_a_warm_start_grids_only_the_new_effect_and_polishes_both(calls):
 # ---------------------------------------------------------------- acceptance rule
 
 def test_an_addition_must_beat_the_noise_and_the_parameter_penalty():
-    floor, current = 0.01, 0.5
-    assert "noise floor" in SEL.acceptance(NOISE_FACTOR * floor * 0.99, 1, current, floor)
-    penalty = PARAM_PENALTY * 2 * current
-    assert "parameter penalty" in SEL.acceptance(0.99 * penalty, 2, current, floor)
-    assert SEL.acceptance(1.01 * penalty, 2, current, floor) is None
-    assert SEL.acceptance(1.01 * penalty, 1, current, floor) is None
+    floor, current = 0.01, 0.05
+    noise = NOISE_FACTOR * floor
+
+    def cut(part):   # the held-out gain of an addition that explains `part` (m) of `current`
+        return current - math.sqrt(current ** 2 - part ** 2)
+    assert "noise floor" in SEL.acceptance(cut(0.99 * noise), 1, current, floor)
+    assert SEL.acceptance(cut(1.01 * noise), 1, current, floor) is None
+    penalty = PARAM_PENALTY * 3 * current
+    assert cut(1.01 * noise) < penalty
+    assert "parameter penalty" in SEL.acceptance(cut(1.01 * noise), 3, current, floor)
+    assert SEL.acceptance(1.01 * penalty, 3, current, floor) is None
+
+
+@settings(max_examples=100, deadline=None)
+@given(signature=st.floats(0.0, 10.0), remainder=st.floats(0.0, 20.0))
+def test_what_an_effect_explains_does_not_shrink_beside_what_is_left_unexplained(signature, remainder):
+    # in noise-floor units: a log's gap is noise (1), the effect's signature and a
+    # model-form remainder, independent, in quadrature; the effect fitted takes its own part
+    before = math.sqrt(1.0 + signature ** 2 + remainder ** 2)
+    after = math.sqrt(1.0 + remainder ** 2)
+    # before^2 - after^2 cancels to a few eps x before^2: its root to sqrt(4 eps) x before
+    assert_allclose(SEL.explained(before - after, before), signature, rtol=1e-9, atol=4 * 1.5e-8 * before)
+    refused = SEL.acceptance(before - after, 0, before, 1.0)
+    assert (refused is None) == (SEL.explained(before - after, before) > NOISE_FACTOR)
 
 
 # ---------------------------------------------------------------- forward selection
@@ -300,6 +320,31 @@ def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_set
     assert_allclose(sum(c.probability for c in ranking), 1.0, rtol=1e-12)
 
 
+def test_an_event_within_the_offset_a_real_random_motion_leaves_by_chance_is_selected_again_against_it():
+    from workbench.diagnosis.rank import within_chance
+    from workbench.diagnosis.turbulence import RandomEffect
+    floor = 0.01
+    sel, g0 = _select({"drogue_lift": 1.0, "drogue_drag": 0.05}, floor=floor)
+    assert sel.chosen.effects == ["drogue_lift", "drogue_drag"]
+    turb = _turb(["turbulence"], g0)
+
+    def random(steady, real=True):
+        return RandomEffect(turb, _est(real=real), steady if real else 0.0)
+    # drag explains 0.05 m: beyond 2 x 0.01 m, within 2 x hypot(0.01, 0.03) = 0.063 m
+    assert within_chance(sel, random(0.0), floor) == []
+    assert within_chance(sel, random(0.03), floor) == ["drogue_drag"]
+    assert within_chance(sel, random(0.03, real=False), floor) == []
+    # against the wider floor the selection stops before it
+    wider = math.hypot(floor, 0.03)
+    again = SEL.forward_select(["L1"], POOL, Setup(), _serial, g0, wider,
+                               score=_scorer({"drogue_lift": 1.0, "drogue_drag": 0.05}, floor, 0.0, None))
+    assert again.chosen.effects == ["drogue_lift"] and "drogue_drag" in again.stopped
+    # the probabilities: a deterministic gain within that offset is no decisive evidence
+    g = [0.20, 0.183]
+    assert probabilities(g, [1, 2], 0.015, 100.0)[1] > 0.999
+    assert 0.1 < probabilities(g, [1, 2], 0.015, 100.0, chance=0.17)[1] < 0.5
+
+
 def test_none_ranks_first_when_nothing_is_selected():
     sel, g0 = _select({"drogue_lift": 0.01}, floor=0.01)
     ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200)
@@ -441,12 +486,12 @@ def test_a_step_takes_a_plausible_addition_before_one_on_its_search_bound_of_sim
     far = _fit({"drogue_lift": {"scale": 1.5}}, 0.10 + 1.01 * PARAM_PENALTY * 0.48)
     assert SEL._take([on_bound, far], None, 0.48, 0.007) == (on_bound, None)
     # the fit on its bound only when no plausible addition earns its place: lift's
-    # 0.005 m gain is under twice the 0.007 m floor
+    # 0.005 m cut is under one parameter's worth of the gap left (0.024 m)
     weak = _fit({"drogue_lift": {"scale": 1.5}}, 0.475)
     assert SEL._take([on_bound, weak], None, 0.48, 0.007) == (on_bound, None)
     # nothing accepted: the plausible one is refused, with its reason
     took, why = SEL._take([_fit(WIND_ON_BOUND, 0.476), weak], None, 0.48, 0.007)
-    assert took is weak and "noise floor" in why
+    assert took is weak and "parameter penalty" in why
 
 
 def test_within_the_noise_a_step_takes_the_addition_naming_fewest_events():

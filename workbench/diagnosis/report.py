@@ -398,9 +398,9 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
     out = [Heading(1, esc(title), "diagnosis"),
            Para(f"Gap per family (m, defined per family), before and after each candidate explanation, "
                 f"calibrated on training data and scored held out. Forward selection adds, one at a time and up "
-                f"to {diag.get('max_effects', '?')}, the effect that most cuts the held-out gap while its gain "
-                f"beats {NOISE_FACTOR:g}× the noise floor and {PARAM_PENALTY:g} × its new parameters × the gap "
-                f"left; the selected set ranks first, then the other candidates fitted on the way by held-out "
+                f"to {diag.get('max_effects', '?')}, the effect that most cuts the held-out gap while what it "
+                f"explains of the gap (in quadrature) beats {NOISE_FACTOR:g}× the noise floor and its cut beats "
+                f"{PARAM_PENALTY:g} × its new parameters × the gap left; the selected set ranks first, then the other candidates fitted on the way by held-out "
                 f"gap × (1 + {PARAM_PENALTY:g} per parameter). A gap under {NOISE_FACTOR:g}× its noise floor is "
                 f"noise. Scheduler: {esc(diag.get('scheduler'))}.")]
     for name, d in diag["families"].items():

@@ -16,10 +16,12 @@ addition (`_take`, `choose`): among additions within the noise floor of
 each other, the one naming fewest events, then with fewest parameters; and a
 plausible addition before an implausible one (on a search bound) of similar
 gap. It is accepted when
-its held-out gain over the current set (current gap minus its gap, m) beats
-both the noise, gain > `NOISE_FACTOR` x the noise floor, and the parameter
-penalty, gain > `PARAM_PENALTY` x (its new parameters) x the current held-out
-gap: each parameter must buy `PARAM_PENALTY` of what is left (Occam's rule).
+what it explains of the held-out gap beats the noise, sqrt(current^2 -
+after^2) > `NOISE_FACTOR` x the noise floor (gaps add in quadrature), and its
+held-out gain over the current set (current gap minus its gap, m) beats the
+parameter penalty, gain > `PARAM_PENALTY` x (its new parameters) x the
+current held-out gap: each parameter must buy `PARAM_PENALTY` of what is left
+(Occam's rule).
 Once it stops, backward elimination (`_backward`) drops a selected event
 that the later ones made redundant.
 Otherwise, or at `MAX_EFFECTS` effects, the selection stops and says why.
@@ -98,12 +100,30 @@ def _fit_and_score(paths, candidate, setup, warm, n_params, t_start) -> Candidat
                      wall_s=time.perf_counter() - t_start)
 
 
+def explained(gain: float, current_gap: float) -> float:
+    """The part of the held-out gap `current_gap` (m) that a step cutting it
+    by `gain` explains: sqrt(current^2 - after^2), gaps being RMS and
+    independent parts adding in quadrature."""
+    after = current_gap - gain
+    return math.sqrt(max(current_gap ** 2 - after ** 2, 0.0)) if gain > 0 else 0.0
+
+
 def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str | None:
     """Why an addition that cuts the held-out gap `current_gap` by `gain` (m)
-    with `n_new` new parameters is refused, or None when it is accepted."""
+    with `n_new` new parameters is refused, or None when it is accepted.
+
+    The noise: what the addition explains (`explained`, in quadrature) must
+    beat `NOISE_FACTOR` x the noise floor, the rule a gap itself is real by.
+    Not the plain difference of the gaps: beside a model-form remainder a few
+    times the noise, an effect whose own signature is three times the noise
+    cuts the RMS by barely one noise floor, and would be refused wherever
+    anything else is left unexplained. The parameter penalty stays on the
+    plain cut: each parameter must buy `PARAM_PENALTY` of the gap left."""
+    part = explained(gain, current_gap)
     noise, penalty = NOISE_FACTOR * floor, PARAM_PENALTY * n_new * current_gap
-    if gain <= noise:
-        return f"cuts the held-out gap by {gain:.4f} m, not more than {NOISE_FACTOR:g} x the noise floor ({noise:.4f} m)"
+    if part <= noise:
+        return (f"explains {part:.4f} m of the held-out gap {current_gap:.4f} m (cutting it by {gain:.4f} m), "
+                f"not more than {NOISE_FACTOR:g} x the noise floor ({noise:.4f} m)")
     if gain <= penalty:
         return (f"cuts the held-out gap by {gain:.4f} m, not more than the parameter penalty ({PARAM_PENALTY:g} x "
                 f"{n_new} new parameter(s) x the held-out gap {current_gap:.4f} m = {penalty:.4f} m)")
