@@ -40,7 +40,7 @@ def _synthetic(calls):
         r = (np.sin(k * T) * math.log(d / TRUTH["drogue_drag"]["scale"])
              + np.cos(0.7 * k * T) * (w - TRUTH["tanker_wake"]["strength"]) * (1.0 + 0.1 * w)
              + np.random.default_rng(len(path)).normal(0.0, NOISE_M, T.size))
-        return types.SimpleNamespace(r=r, segment=np.zeros(T.size, int), floor=np.full(T.size, NOISE_M),
+        return types.SimpleNamespace(r=r, segment=(np.arange(T.size) // 40) % 2, floor=np.full(T.size, NOISE_M),
                                      channel=np.full(T.size, "drogue z"))
     return evaluate
 
@@ -109,6 +109,21 @@ def test_what_an_effect_explains_does_not_shrink_beside_what_is_left_unexplained
     assert_allclose(SEL.explained(before - after, before), signature, rtol=1e-9, atol=4 * 1.5e-8 * before)
     refused = SEL.acceptance(before - after, 0, before, 1.0)
     assert (refused is None) == (SEL.explained(before - after, before) > NOISE_FACTOR)
+
+
+def test_a_candidates_held_out_components_line_up_with_the_baselines_fold_by_fold(calls):
+    from workbench.diagnosis.fit import baseline_held_out
+    from workbench.diagnosis.rank import separating_components
+    for paths in (PARTS, ["a"]):      # leave one log out; one log's two time-block folds
+        c = SEL.score_candidate((paths, ("drogue_drag",), Setup(), None))
+        base = baseline_held_out(paths, Setup())
+        assert len(c.held_out) == len(base) == (len(paths) if len(paths) > 1 else 2)
+        assert [len(x.r) for x in c.held_out] == [len(x.r) for x in base]
+        # every fold's held-out components, squared and averaged per fold, are its held-out gap
+        assert_allclose([math.sqrt(np.mean(x.r ** 2)) for x in c.held_out], [f["gap_heldout"] for f in c.folds],
+                        rtol=1e-12)
+        none = Candidate("none", [], 0, gap_after_heldout=1.0, held_out=base)
+        assert 1.0 <= separating_components(c, none, -1.0) <= sum(len(x.r) for x in base)
 
 
 # ---------------------------------------------------------------- forward selection
