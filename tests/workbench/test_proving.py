@@ -188,6 +188,14 @@ def test_summary_counts_top1_recall_and_confusion():
     assert s["n"] == 3 and s["n_diagnose_failed"] == 1
     assert_allclose(s["top1"], 1 / 3, rtol=1e-12)
     assert "baseline failed on 1" in campaign.text({**s, "wall_s": 30.0, "generate_failed": []})
+    # the top's probability as a forecast that it is right: the Brier score beside the
+    # constant forecast of the top-1 rate (1/2 here: 1/4); the failed log has none
+    rows[0]["top_probability"], rows[1]["top_probability"] = 0.9, 0.2
+    s = campaign.summarise(rows + [failed], "multi")
+    assert_allclose([s["top_probability_mean"], s["brier_top"], s["brier_constant"]],
+                    [0.55, (0.1 ** 2 + 0.2 ** 2) / 2, 0.25], rtol=1e-12)
+    assert "Brier score 0.025 (a constant forecast of the top-1 rate: 0.250)" in \
+        campaign.text({**s, "wall_s": 30.0, "generate_failed": []})
 
 
 def test_the_proving_ground_does_not_write_into_the_committed_reports(tmp_path):

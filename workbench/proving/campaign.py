@@ -118,13 +118,29 @@ def run_one(job) -> dict:
             "ranking": [c.effect for c in d.ranking], "generate_s": t_gen, "diagnose_s": d.wall_s}
 
 
+def _reliability(rows: list) -> dict:
+    """How far the top explanation's probability is to be trusted: its mean
+    over the logs, and its Brier score as a forecast that the top is right,
+    mean (p - right)^2, beside a constant forecast of the top-1 rate's,
+    rate (1 - rate): lower than that, the probabilities say more than the
+    rate alone. Logs whose diagnosis failed carry no probability."""
+    scored = [r for r in rows if r.get("top_probability") is not None]
+    if not scored:
+        return {}
+    p = np.array([r["top_probability"] for r in scored], float)
+    right = np.array([r["correct"] for r in scored], float)
+    rate = float(np.mean(right))
+    return {"top_probability_mean": float(np.mean(p)), "brier_top": float(np.mean((p - right) ** 2)),
+            "brier_constant": rate * (1.0 - rate)}
+
+
 def _figures(rows: list) -> dict:
     if not rows:
         return {"n": 0}
     shr = np.array([r["shrink_heldout"] for r in rows], float)
     nameable = [r for r in rows if r["nameable"]]
     seen = [r for r in rows if r["detectable"]]
-    return {"n": len(rows), "top1": float(np.mean([r["correct"] for r in rows])),
+    return {"n": len(rows), **_reliability(rows), "top1": float(np.mean([r["correct"] for r in rows])),
             "recall": float(np.mean([r["recall"] for r in rows])),
             "median_shrink": float(np.median(shr)), "share_shrink_ge_70pct": float(np.mean(shr >= 0.7)),
             "n_nameable": len(nameable),
@@ -180,6 +196,9 @@ def text(r: dict) -> str:
              f"logs whose effects are above their noise {r['n_detectable']}, top-1 {_pct(r['top1_detectable'])}, "
              f"recall {_pct(r['recall_detectable'])}; "
              f"{r['seconds_per_log'] or 0:.0f} s per log, {r['wall_s']:.0f} s in all"
+             + (f"; the top explanation's probability {r['top_probability_mean']:.2f} on average, its Brier score "
+                f"{r['brier_top']:.3f} (a constant forecast of the top-1 rate: {r['brier_constant']:.3f})"
+                if "brier_top" in r else "")
              + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")
              + (f"; the diagnosis's baseline failed on {r['n_diagnose_failed']} (counted as misses)"
                 if r.get("n_diagnose_failed") else "")]
