@@ -194,8 +194,12 @@ def test_summary_counts_top1_recall_and_confusion():
     s = campaign.summarise(rows + [failed], "multi")
     assert_allclose([s["top_probability_mean"], s["brier_top"], s["brier_constant"]],
                     [0.55, (0.1 ** 2 + 0.2 ** 2) / 2, 0.25], rtol=1e-12)
-    assert "Brier score 0.025 (a constant forecast of the top-1 rate: 0.250)" in \
-        campaign.text({**s, "wall_s": 30.0, "generate_failed": []})
+    assert "the top explanation 0.55 on average, its Brier score 0.025 (a constant forecast of the top-1 " \
+           "rate: 0.250)" in campaign.text({**s, "wall_s": 30.0, "generate_failed": []})
+    # the events named, summed over the explanations naming them, where every row has it
+    rows[0]["top_named_probability"], rows[1]["top_named_probability"] = 1.0, 0.0
+    s = campaign.summarise(rows, "multi")
+    assert s["probability_of"] == "the events named" and s["brier_top"] == 0.0
 
 
 def test_the_proving_ground_does_not_write_into_the_committed_reports(tmp_path):

@@ -286,8 +286,8 @@ def _held(r):
 
 def _cand(effects, r, n_params=1):
     r = np.asarray(r, float)
-    return Candidate("+".join(effects) or "none", list(effects), n_params, gap_after_heldout=float(np.sqrt(np.mean(r ** 2))),
-                     held_out=_held(r))
+    return Candidate("+".join(effects) or "none", list(effects), n_params,
+                     gap_after_heldout=float(np.sqrt(np.mean(r ** 2))), held_out=_held(r))
 
 
 def test_candidates_apart_by_a_smooth_pattern_within_the_noise_share_the_probability():
@@ -358,6 +358,18 @@ def test_an_event_within_the_offset_a_real_random_motion_leaves_by_chance_is_sel
     g = [0.20, 0.183]
     assert probabilities(g, [1, 2], 0.015, 100.0)[1] > 0.999
     assert 0.1 < probabilities(g, [1, 2], 0.015, 100.0, chance=0.17)[1] < 0.5
+
+
+def test_the_events_named_carry_the_probability_of_every_explanation_naming_exactly_them():
+    from workbench.diagnosis.rank import named_probability
+    lift = Candidate("drogue_lift", ["drogue_lift"], 1, named=["drogue_lift"], probability=0.3)
+    calibrated = Candidate("drogue_lift+drogue_drag", ["drogue_lift", "drogue_drag"], 2, named=["drogue_lift"],
+                           probability=0.25)      # the drag within its data sheet's tolerance: no event
+    wind = Candidate("steady_wind", ["steady_wind"], 2, named=["steady_wind"], probability=0.4)
+    none = Candidate("none", [], 0, named=[], probability=0.05)
+    out = named_probability([lift, calibrated, wind, none])
+    assert list(out) == ["drogue_lift", "steady_wind", "none"]      # likeliest first
+    assert_allclose(list(out.values()), [0.55, 0.4, 0.05], rtol=1e-12)
 
 
 def test_none_ranks_first_when_nothing_is_selected():

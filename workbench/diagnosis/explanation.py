@@ -70,3 +70,9 @@ def implausibility(c: Candidate) -> str | None:
         elif p.search and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
             out.append(f"{eff}.{name} = {v:.3g} on its search bound ({p.search[0]:g}..{p.search[1]:g})")
     return "; ".join(out) or None
+
+
+def events_of(c) -> str:
+    """The events the candidate `c` names (`c.named`), in the registry's
+    order, "+"-joined; "none" for none."""
+    return "+".join(sorted(c.named or [], key=list(EFFECTS).index)) or "none"

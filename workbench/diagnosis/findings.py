@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver.effects import EFFECTS
+from workbench.diagnosis.explanation import events_of
 from workbench.diagnosis.remainder import sentences
 from workbench.diagnosis.identify import PARALLEL_COS, partners
 from workbench.diagnosis.result import FamilyDiagnosis
@@ -84,6 +85,19 @@ def _separability(d: FamilyDiagnosis) -> list[str]:
                                                for p in d.not_separable) + "."]
 
 
+def _named(d: FamilyDiagnosis, top) -> list[str]:
+    """How likely the events the best explanation names are, over every
+    explanation naming exactly them, and the likeliest other events."""
+    named = d.named_probability or {}
+    mine = events_of(top)
+    if mine not in named:
+        return []
+    others = [(k, p) for k, p in named.items() if k != mine][:2]
+    return [f"The events it names ({mine}) carry probability {named[mine]:.2f} over every explanation naming "
+            f"exactly them (apart only by calibrations or model form)"
+            + ("; the likeliest others: " + ", ".join(f"{k} {p:.2f}" for k, p in others) if others else "") + "."]
+
+
 def findings(d: FamilyDiagnosis) -> list[str]:
     """Plain sentences from a family's numbers: what was found, how sure, what is left."""
     top = d.ranking[0]
@@ -113,6 +127,7 @@ def findings(d: FamilyDiagnosis) -> list[str]:
                    f"gaps within the noise floor {d.noise_floor:.3f} m of each other; the baseline's held-out gap "
                    f"was {top.gap_before:.3f} m.")
     out += _selection(d)
+    out += _named(d, top)
     out += _calibrations(top)
     out += _separability(d)
     out += _plausibility(d)

@@ -59,7 +59,7 @@ from typing import Callable
 from solver.effects import EFFECTS
 from workbench.config import defaults
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
-from workbench.diagnosis.explanation import explain, implausibility
+from workbench.diagnosis.explanation import events_of, explain, implausibility
 from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import Components, baseline_held_out, splitter_for
 from workbench.diagnosis.identify import not_separable
@@ -69,7 +69,8 @@ from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, acceptance, forward_select, with_random
 from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
-                                       NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of, freeze)
+                                       NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of,
+                                       freeze)
 from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
@@ -219,6 +220,17 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     return ranking
 
 
+def named_probability(ranking: list) -> dict[str, float]:
+    """{events named: the summed probability of the ranked explanations that
+    name exactly them}, likeliest first: explanations apart only by their
+    calibrations within a data sheet's tolerance or their model form say the
+    same thing about the flight, and an engineer asks how likely that is."""
+    out: dict[str, float] = {}
+    for c in ranking:
+        out[events_of(c)] = out.get(events_of(c), 0.0) + (c.probability or 0.0)
+    return dict(sorted(out.items(), key=lambda kv: -kv[1]))
+
+
 def within_chance(sel: Selection, turb, floor: float) -> list[str]:
     """The events `sel` selected whose step `acceptance` refuses against the
     noise floor `floor` and the offset the family's turbulence (`turb`, a
@@ -339,7 +351,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
         gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m,
-        remainder=remainder(left),
+        remainder=remainder(left), named_probability=named_probability(ranking),
         not_separable=not_separable(columns, np.concatenate([base[p].floor for p in paths])),
         baseline=setup.prior_effects)
 

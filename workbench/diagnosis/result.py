@@ -118,6 +118,9 @@ class FamilyDiagnosis:
     # the effects every simulation carried under the candidates' own: a fleet
     # calibration of the hardware (`fleet`), {} for the data sheets' baseline
     baseline: dict = dataclasses.field(default_factory=dict)
+    # {events named, "+"-joined ("none": none): the probability of the explanations naming
+    # exactly them}, likeliest first (`rank.named_probability`)
+    named_probability: dict = dataclasses.field(default_factory=dict)
 
     @property
     def success(self) -> bool:

@@ -34,6 +34,7 @@ from flighttest import read_record
 from flighttest.residual import residual
 from solver.chain import DivergenceError
 from workbench.diagnosis.evaluate import gap
+from workbench.diagnosis.explanation import events_of
 from workbench.diagnosis.rank import diagnose_family
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
@@ -109,7 +110,9 @@ def run_one(job) -> dict:
     unnameable = sorted(e for e in true if e in d.not_applicable)
     return {**truth, "log": path.name, "truth": "+".join(sorted(true)), "top": "+".join(sorted(named)) or "none",
             "top_explanation": top.effect, "top_effects": list(top.effects), "top_params": top.params,
-            "top_calibrations": top.calibrations, "top_probability": top.probability, "top_implausible": top.implausible,
+            "top_calibrations": top.calibrations, "top_probability": top.probability,
+            "top_named_probability": d.named_probability.get(events_of(top)),
+            "top_implausible": top.implausible,
             "implausible": {c.effect: c.implausible for c in d.ranking if c.implausible},
             "correct": set(named) == true, "recall": len(true & set(named)) / len(true),
             "nameable": not unnameable, "unnameable": unnameable,
@@ -119,18 +122,24 @@ def run_one(job) -> dict:
 
 
 def _reliability(rows: list) -> dict:
-    """How far the top explanation's probability is to be trusted: its mean
-    over the logs, and its Brier score as a forecast that the top is right,
-    mean (p - right)^2, beside a constant forecast of the top-1 rate's,
-    rate (1 - rate): lower than that, the probabilities say more than the
-    rate alone. Logs whose diagnosis failed carry no probability."""
+    """How far the probability of what the top explanation names is to be
+    trusted: its mean over the logs, and its Brier score as a forecast that
+    the top is right, mean (p - right)^2, beside a constant forecast of the
+    top-1 rate's, rate (1 - rate): lower than that, the probabilities say
+    more than the rate alone. The probability of the events named (summed
+    over the explanations naming them) where every row has it, else the top
+    explanation's own (rows written before it was recorded); logs whose
+    diagnosis failed carry none."""
     scored = [r for r in rows if r.get("top_probability") is not None]
     if not scored:
         return {}
-    p = np.array([r["top_probability"] for r in scored], float)
+    key = "top_named_probability" if all(r.get("top_named_probability") is not None for r in scored) \
+        else "top_probability"
+    p = np.array([r[key] for r in scored], float)
     right = np.array([r["correct"] for r in scored], float)
     rate = float(np.mean(right))
-    return {"top_probability_mean": float(np.mean(p)), "brier_top": float(np.mean((p - right) ** 2)),
+    return {"probability_of": "the events named" if key == "top_named_probability" else "the top explanation",
+            "top_probability_mean": float(np.mean(p)), "brier_top": float(np.mean((p - right) ** 2)),
             "brier_constant": rate * (1.0 - rate)}
 
 
@@ -196,7 +205,8 @@ def text(r: dict) -> str:
              f"logs whose effects are above their noise {r['n_detectable']}, top-1 {_pct(r['top1_detectable'])}, "
              f"recall {_pct(r['recall_detectable'])}; "
              f"{r['seconds_per_log'] or 0:.0f} s per log, {r['wall_s']:.0f} s in all"
-             + (f"; the top explanation's probability {r['top_probability_mean']:.2f} on average, its Brier score "
+             + (f"; the probability of {r['probability_of']} {r['top_probability_mean']:.2f} on average, its "
+                f"Brier score "
                 f"{r['brier_top']:.3f} (a constant forecast of the top-1 rate: {r['brier_constant']:.3f})"
                 if "brier_top" in r else "")
              + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")
