@@ -116,7 +116,7 @@ def test_a_candidates_held_out_components_line_up_with_the_baselines_fold_by_fol
     from workbench.diagnosis.rank import separating_components
     for paths in (PARTS, ["a"]):      # leave one log out; one log's two time-block folds
         c = SEL.score_candidate((paths, ("drogue_drag",), Setup(), None))
-        base = baseline_held_out(paths, Setup())
+        base = baseline_held_out(paths, {p: F.evaluate(p, {}, Setup()) for p in paths})
         assert len(c.held_out) == len(base) == (len(paths) if len(paths) > 1 else 2)
         assert [len(x.r) for x in c.held_out] == [len(x.r) for x in base]
         # every fold's held-out components, squared and averaged per fold, are its held-out gap

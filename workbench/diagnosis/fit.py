@@ -60,18 +60,23 @@ class Components:
     channel: np.ndarray
 
 
-def components(part: Part, effects: dict, setup: Setup) -> Components:
-    """`part`'s residual components simulated with `effects`."""
-    path, seg = _part(part)
-    R = evaluate(path, effects, setup)
+def _of(R, seg: int | None) -> Components:
     keep = slice(None) if seg is None else R.segment == seg
     return Components(R.r[keep], R.floor[keep], R.channel[keep])
 
 
-def baseline_held_out(paths: Sequence[str], setup: Setup) -> list[Components]:
-    """The baseline's components on every fold's held-out parts, in the order
-    a candidate's `held_out` lists them (the folds of `splitter_for`)."""
-    return [components(part, {}, setup) for fold in splitter_for(paths).split(paths) for part in fold.test]
+def components(part: Part, effects: dict, setup: Setup) -> Components:
+    """`part`'s residual components simulated with `effects`."""
+    path, seg = _part(part)
+    return _of(evaluate(path, effects, setup), seg)
+
+
+def baseline_held_out(paths: Sequence[str], base: dict) -> list[Components]:
+    """The baseline's components (`base`: its residual per path) on every
+    fold's held-out parts, in the order a candidate's `held_out` lists them
+    (the folds of `splitter_for`)."""
+    return [_of(base[path], seg) for fold in splitter_for(paths).split(paths)
+            for path, seg in map(_part, fold.test)]
 
 
 def effects_at(candidate: tuple, x) -> dict:

@@ -231,14 +231,18 @@ def named_probability(ranking: list) -> dict[str, float]:
     return dict(sorted(out.items(), key=lambda kv: -kv[1]))
 
 
+def chance_floor(floor: float, turb) -> float:
+    """The noise floor `floor` and the offset the family's turbulence (`turb`,
+    a `turbulence.RandomEffect`) leaves by chance, added in quadrature."""
+    return math.hypot(floor, turb.steady_floor_m)
+
+
 def within_chance(sel: Selection, turb, floor: float) -> list[str]:
     """The events `sel` selected whose step `acceptance` refuses against the
-    noise floor `floor` and the offset the family's turbulence (`turb`, a
-    `turbulence.RandomEffect`) leaves by chance, added in quadrature; none
-    unless its random motion is real."""
+    `chance_floor`; none unless the turbulence's random motion is real."""
     if sel.chosen is None or turb.estimate is None or not turb.estimate.real:
         return []
-    wider = math.hypot(floor, turb.steady_floor_m)
+    wider = chance_floor(floor, turb)
     return [s["added"] for s in sel.steps
             if s.get("accepted") and not s.get("standing") and s.get("added") in sel.chosen.effects
             and acceptance(s["gain_m"], s["new_params"], s["gap_heldout_before_m"], wider)]
@@ -296,7 +300,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         # a random motion's low frequencies lie alike in both halves of a log: a steady
         # effect fitted to them cuts the held-out gap too, so once the motion is real the
         # noise a deterministic addition must beat includes the offset it leaves by chance
-        wider = math.hypot(floor, turb.steady_floor_m)
+        wider = chance_floor(floor, turb)
         say(f"{', '.join(chance)} within the offset turbulence of {turb.estimate.sigma_mps:.2f} m/s leaves by "
             f"chance: selecting again against {wider:.3f} m")
         sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, wider, say=say)
@@ -319,7 +323,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         c.screen_share = {e: scores.get(e) for e in c.effects}
     none = Candidate("none", [], 0, gap_before=gap_before_heldout if len(paths) == 1 else gap_before,
                      gap_after_train=gap_before_train, gap_after_heldout=gap_before_heldout, shrink_heldout=0.0,
-                     score=gap_before_heldout, held_out=baseline_held_out(paths, setup))
+                     score=gap_before_heldout, held_out=baseline_held_out(paths, base))
     within_noise = gap_before <= NOISE_FACTOR * floor
     if sel.chosen is None:
         none.why = ("the baseline explains the logs to within their noise" if within_noise else
