@@ -19,6 +19,7 @@ from solver.effects import EFFECTS
 from workbench.diagnosis.explanation import implausibility
 from workbench.diagnosis.rank import plausible_first, probabilities
 from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.setup import NOISE_FACTOR
 from workbench.proving import campaign
 from workbench.proving.generate import DRAWS, KIND_EFFECTS, TRACKER_HZ, generate
 from workbench.proving.physics import LossFactorHose
@@ -57,9 +58,12 @@ def test_probabilities_are_akaike_weights_of_the_held_out_gaps():
     # equal gaps: one more parameter costs a factor e^-1 (AIC's 2 per parameter)
     w = probabilities([0.1, 0.1], [1, 2], floor=0.05, n=100)
     assert_allclose(w, [1 / (1 + math.exp(-1)), math.exp(-1) / (1 + math.exp(-1))], rtol=1e-12)
-    # best gap at the noise floor: Delta = n (g^2 - g0^2) / floor^2 = 100 * 0.0011 / 0.0025 = 44
+    # best gap at the noise floor, over 100 components: n / floor^2 is 200 x the selection's own
+    # test, 2 / (NOISE_FACTOR floor)^2 per m^2 (`select.acceptance`); the evidence stops there,
+    # Delta = 2 / 0.01 * 0.0011 = 0.22 (not 100 * 0.0011 / 0.0025 = 44)
     w = probabilities([0.05, 0.06], [1, 1], floor=0.05, n=100)
-    assert_allclose(w[1], math.exp(-22) / (1 + math.exp(-22)), rtol=1e-9)
+    d = 2.0 / (NOISE_FACTOR * 0.05) ** 2 * (0.06 ** 2 - 0.05 ** 2)
+    assert_allclose(w[1], math.exp(-d / 2) / (1 + math.exp(-d / 2)), rtol=1e-9)
     # a best gap above the floor widens the noise model to it (model-form remainder is not evidence)
     w = probabilities([0.2, 0.21, 0.4], [1, 1, 0], floor=0.01, n=50)
     d = 50 * (0.21 ** 2 - 0.2 ** 2) / 0.2 ** 2

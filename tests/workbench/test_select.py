@@ -303,13 +303,40 @@ def test_candidates_apart_by_a_smooth_pattern_within_the_noise_share_the_probabi
     assert n_ab < 40.0        # a few dozen pieces of evidence at most, not 400 (measured: 15)
     pa, pb = probabilities([a.gap_after_heldout, b.gap_after_heldout], [1, 2], NOISE_M, [400.0, n_ab])
     assert 0.05 < pb < pa     # the gap and the parameter count favour a, not decisively
-    # the same gaps counted over every component, as one count for all: all but certain
-    assert probabilities([a.gap_after_heldout, b.gap_after_heldout], [1, 2], NOISE_M, 400.0)[1] < 1e-6
+    # the same gaps counted over every component, as one count for all: no more evidence than
+    # the selection's own test allows, 2 / (NOISE_FACTOR floor)^2 per m^2 (400 / 0.037^2 is 58 x that)
+    cap = 2.0 / (NOISE_FACTOR * NOISE_M) ** 2
+    d2 = b.gap_after_heldout ** 2 - a.gap_after_heldout ** 2
+    assert_allclose(probabilities([a.gap_after_heldout, b.gap_after_heldout], [1, 2], NOISE_M, 400.0)[1],
+                    1.0 / (1.0 + math.exp(0.5 * (cap * d2 + 2.0))), rtol=1e-12)
     # apart by white noise of the floor's size, nearly every component is evidence
     c = _cand(["drogue_drag"], remainder + rng.normal(0.0, NOISE_M, t.size))
     assert separating_components(c, a, 400.0) > 200.0
     # no held-out components kept (a candidate built elsewhere): the count given
     assert separating_components(Candidate("x", ["x"], 1), a, 123.0) == 123.0
+
+
+@settings(max_examples=50, deadline=None)
+@given(floor=st.floats(0.001, 0.1), remainder=st.floats(0.0, 1.0), chance=st.floats(0.0, 0.1),
+       more=st.floats(1.0, 1e3))
+def test_an_addition_that_explains_just_the_selections_bar_weighs_the_same_as_the_set_without_it(
+        floor, remainder, chance, more):
+    # the probabilities read the evidence as the selection does: one parameter more that explains
+    # NOISE_FACTOR x the (widened) noise floor, in quadrature, is Akaike's break-even, however
+    # many components the logs hold beyond those that reach the cap
+    wide = math.hypot(floor, chance)
+    bar = NOISE_FACTOR * wide
+    after = math.hypot(floor, remainder)
+    before = math.hypot(after, bar)
+    for k, refused in ((0.999, True), (1.001, False)):      # the bar: refused just below, accepted above
+        b = math.hypot(after, k * bar)
+        assert (SEL.acceptance(b - after, 0, b, wide) is not None) == refused
+    s2 = max(floor, after) ** 2
+    n_cap = 2.0 / bar ** 2 * s2
+    assert_allclose(probabilities([before, after], [1, 2], floor, more * n_cap, chance), [0.5, 0.5], rtol=1e-6)
+    # fewer independent components than that (a smooth difference beside a large remainder):
+    # less evidence than the bar, the simpler set weighs more
+    assert probabilities([before, after], [1, 2], floor, 0.5 * n_cap, chance)[0] > 0.5 + 1e-3
 
 
 def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_sets_weight():
@@ -354,10 +381,74 @@ def test_an_event_within_the_offset_a_real_random_motion_leaves_by_chance_is_sel
     again = SEL.forward_select(["L1"], POOL, Setup(), _serial, g0, wider,
                                score=_scorer({"drogue_lift": 1.0, "drogue_drag": 0.05}, floor, 0.0, None))
     assert again.chosen.effects == ["drogue_lift"] and "drogue_drag" in again.stopped
-    # the probabilities: a deterministic gain within that offset is no decisive evidence
+    # the probabilities: a deterministic gain within that offset is no decisive evidence; beyond
+    # it (0.081 m explained against a 0.03 m bar) the selection's own test, odds e^((cap d2 - 2) / 2)
     g = [0.20, 0.183]
-    assert probabilities(g, [1, 2], 0.015, 100.0)[1] > 0.999
+    cap = 2.0 / (NOISE_FACTOR * 0.015) ** 2
+    assert_allclose(probabilities(g, [1, 2], 0.015, 100.0)[1],
+                    1.0 / (1.0 + math.exp(-0.5 * (cap * (g[0] ** 2 - g[1] ** 2) - 2.0))), rtol=1e-12)
+    assert probabilities(g, [1, 2], 0.015, 100.0)[1] > 0.99
     assert 0.1 < probabilities(g, [1, 2], 0.015, 100.0, chance=0.17)[1] < 0.5
+
+
+def test_a_random_motion_explains_by_chance_only_what_lies_along_a_steps_own_pattern():
+    from workbench.diagnosis.rank import within_chance
+    from workbench.diagnosis.turbulence import RandomEffect
+    # a log's held-out components: noise, a steady offset a steady wind takes and a phase
+    # pattern (a tracker lag's) of the same RMS, 0.05 m each; the random motion shifts
+    # every component alike by chance (a trail's low frequencies), 0.03 m RMS
+    floor, part, offset = 0.01, 0.05, 0.03
+    t = np.arange(400) * 0.025                                   # 10 s, two whole periods of 5 s
+    noise = np.random.default_rng(7).normal(0.0, floor, t.size)
+    pattern = {"steady_wind": np.full(t.size, part), "sensor_lag": part * math.sqrt(2) * np.sin(0.4 * np.pi * t)}
+
+    def score(job):
+        paths, cand, setup, warm = job
+        r = noise + sum(p for e, p in pattern.items() if e not in cand)
+        n = len(calibrated_params(cand))
+        g = float(np.sqrt(np.mean(r ** 2)))
+        return Candidate("+".join(cand), list(cand), n, params=effects_at(cand, [0.5] * n),
+                         param_stderr=effects_at(cand, [0.01] * n), gap_after_heldout=g, gap_after_train=g,
+                         held_out=_held(r), folds=[{"held_out": "L1", "params": [0.5] * n, "gap_train": g,
+                                                    "gap_heldout": g}])
+    base = score((["L1"], (), Setup(), None))
+    shift = offset * np.array([1.0, -1.0] * 4)[:, None] * np.ones(t.size)      # 8 members
+    turb = RandomEffect(_turb(["turbulence"], base.gap_after_heldout), _est(), offset, shift=shift,
+                        baseline=base.held_out)
+    wind, lag = (score((["L1"], (e,), Setup(), None)) for e in ("steady_wind", "sensor_lag"))
+    # along the offset's own pattern the whole offset; across it (whole periods) nothing
+    assert_allclose(turb.chance_offset(None, wind), offset, rtol=1e-12)
+    assert turb.chance_offset(None, lag) < 1e-12 * offset
+    # unknown patterns (no held-out components, or other components) fall back on the whole offset
+    assert turb.chance_offset(None, _turb(["turbulence"], 0.05)) == offset
+    assert RandomEffect(turb.candidate, _est(), offset).chance_offset(None, lag) == offset
+    assert RandomEffect(turb.candidate, _est(real=False), 0.0, shift=shift, baseline=base.held_out) \
+        .chance_offset(None, wind) == 0.0
+    # a selection that took both: only the steady wind is within its chance offset,
+    # 2 x hypot(0.01, 0.03) = 0.063 m > 0.05 m; the lag's 0.05 m beats 2 x 0.01 m
+    g0 = base.gap_after_heldout
+    sel = SEL.forward_select(["L1"], ["steady_wind", "sensor_lag"], Setup(), _serial, g0, floor, score=score)
+    assert set(sel.chosen.effects) == {"steady_wind", "sensor_lag"}
+    assert within_chance(sel, turb, floor) == ["steady_wind"]
+    # selected again with each step held to its own chance offset: the lag stays, the wind goes
+    again = SEL.forward_select(["L1"], ["steady_wind", "sensor_lag"], Setup(), _serial, g0, floor, score=score,
+                               chance=turb.chance_offset)
+    assert again.chosen.effects == ["sensor_lag"] and "steady_wind" in again.stopped
+    # the steady wind cut the gap more at step 1 (fewer events being equal, fewer parameters
+    # first): set aside there as within its chance offset, not a reason to stop
+    wind_first = {**pattern, "steady_wind": 1.2 * pattern["steady_wind"]}
+    pattern.update(wind_first)
+    base = score((["L1"], (), Setup(), None))
+    turb = RandomEffect(turb.candidate, _est(), offset, shift=2.0 * shift, baseline=base.held_out)
+    again = SEL.forward_select(["L1"], ["steady_wind", "sensor_lag"], Setup(), _serial, base.gap_after_heldout,
+                               floor, score=score, chance=turb.chance_offset)
+    assert again.steps[0]["alternatives"] and again.chosen.effects == ["sensor_lag"]
+    # the probabilities: each candidate's evidence against the best capped by the chance
+    # offset along the pattern that tells them apart (the best's own: none)
+    g = [0.20, 0.183]
+    assert_allclose(probabilities(g, [1, 2], 0.015, 100.0, chance=[0.17, 0.0]),
+                    probabilities(g, [1, 2], 0.015, 100.0, chance=0.17), rtol=1e-12)
+    assert probabilities(g, [1, 2], 0.015, 100.0, chance=[0.0, 0.17])[1] > 0.99
 
 
 def test_the_events_named_carry_the_probability_of_every_explanation_naming_exactly_them():

@@ -30,14 +30,16 @@ several at once by forward selection, score each held out and rank them.
    like-for-like evidence against the deterministic sets. Then
    turbulence from its statistics (`turbulence`): joined to the selected set
    when its random motion is real and at least light (`select.with_random`),
-   a steady effect within the offset it leaves by chance moved behind it, or
-   behind "none" when it is only the everyday air. Once that random motion
-   is real, a deterministic event must beat it too: when a selected step's
-   gain is within the noise floor and the offset the turbulence leaves by
-   chance (its steady floor), added in quadrature (`within_chance`), the
-   selection runs again against that wider floor (a random motion's low
-   frequencies lie alike in both halves of a log, so a steady effect fitted
-   to them cuts the held-out gap too). Pairs of screened
+   a deterministic effect within what it explains by chance along the
+   effect's own pattern moved behind it, or behind "none" when it is only the
+   everyday air. Once that random motion is real, a deterministic event must
+   beat it too: when a selected step's gain is within the noise floor and
+   what the turbulence explains by chance along the step's pattern, added in
+   quadrature (`within_chance`, `turbulence.RandomEffect.chance_offset`), the
+   selection runs again with every step held to that (a random motion's low
+   frequencies lie alike in both halves of a log, so an effect whose pattern
+   they share cuts the held-out gap too; one whose pattern they miss, a
+   lag's phase or the bow wave before contact, does not). Pairs of screened
    effects whose sensitivity patterns are parallel on the logs are recorded as
    not separable (`identify`).
 3. How much: gap before, after on training data, after held out, per log and
@@ -66,7 +68,7 @@ from workbench.diagnosis.identify import not_separable
 from workbench.diagnosis.remainder import remainder
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
-from workbench.diagnosis.select import Selection, acceptance, forward_select, with_random
+from workbench.diagnosis.select import Selection, acceptance, forward_select, widened, with_random
 from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
                                        NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of,
@@ -123,7 +125,7 @@ def effective_components(residuals) -> float:
     return n
 
 
-def probabilities(gaps, n_params, floor: float, n, chance: float = 0.0) -> list[float]:
+def probabilities(gaps, n_params, floor: float, n, chance=0.0) -> list[float]:
     """Akaike weights of candidates from their held-out gaps (RMS, m), the
     best's g_min, over `n` effective held-out residual components (one count
     for all, or one per candidate: `separating_components`):
@@ -131,16 +133,21 @@ def probabilities(gaps, n_params, floor: float, n, chance: float = 0.0) -> list[
     s^2 = max(floor^2, g_min^2) (the log's noise, widened to the best
     candidate's misfit when that is larger, so a model-form remainder is not
     read as evidence; Burnham & Anderson's quasi-likelihood), plus 2 per
-    parameter. Where a real random motion leaves an offset `chance` (m, the
-    turbulence's steady floor) alike in every component, the components hold
-    no more evidence than that one offset does: n / s^2 at most 1 / chance^2.
-    They sum to 1 over the candidates given."""
+    parameter. The evidence per m^2, n / s^2, is at most
+    2 / (NOISE_FACTOR^2 (floor^2 + chance^2)): the selection's own test
+    (`select.acceptance`, against the floor `select.widened` by what a real
+    random motion explains by chance, `chance` in m, one for all or one per
+    candidate along the pattern that tells it from the best), so that a
+    candidate explaining NOISE_FACTOR x that floor more than another, with
+    one parameter more, weighs the same: the probabilities and the selection
+    read the evidence alike, and a smooth difference of hundreds of
+    components is no more decisive than the noise rule allows. They sum to 1
+    over the candidates given."""
     g = np.asarray(gaps, float)
     g_min = float(np.min(g))
     s2 = max(floor ** 2, g_min ** 2, 1e-300)
-    per_m2 = np.asarray(n, float) / s2
-    if chance > 0.0:
-        per_m2 = np.minimum(per_m2, 1.0 / chance ** 2)
+    cap = 2.0 / (NOISE_FACTOR ** 2 * np.maximum(floor ** 2 + np.asarray(chance, float) ** 2, 1e-300))
+    per_m2 = np.minimum(np.asarray(n, float) / s2, cap)
     aic = per_m2 * (g ** 2 - g_min ** 2) + 2.0 * np.asarray(n_params, float)
     w = np.exp(-0.5 * (aic - aic.min()))
     return (w / w.sum()).tolist()
@@ -192,7 +199,7 @@ def with_random_share(ranking: list, weights: dict, presence: float) -> None:
 
 
 def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: float,
-                   prior: dict | None = None, presence: float = 0.0, chance: float = 0.0) -> list:
+                   prior: dict | None = None, presence: float = 0.0, chance: Callable | None = None) -> list:
     """The ranking of what forward selection fitted: the selected set first,
     then the other candidates by score (held-out gap x (1 + `PARAM_PENALTY`
     per parameter)), `none` last; `none` first when no set was selected. Then
@@ -203,8 +210,9 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     (`probabilities` among the deterministic candidates, each against the
     best on the evidence that separates them, `separating_components`; a set with
     turbulence taking `presence` of its deterministic set's weight:
-    `with_random_share`; the evidence capped at the offset `chance` a real
-    random motion leaves)."""
+    `with_random_share`; the evidence capped at what a real random motion
+    explains by chance along the pattern that tells each from the best,
+    `chance(c, best)` in m, when given)."""
     for c in sel.fitted:
         c.score = c.gap_after_heldout * (1 + PARAM_PENALTY * c.n_params)
     others = sorted((c for c in sel.fitted if c is not sel.chosen), key=lambda c: c.score)
@@ -215,7 +223,8 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     det = [c for c in ranking if "turbulence" not in c.effects]
     best = min(det, key=lambda c: c.gap_after_heldout)
     weights = probabilities([c.gap_after_heldout for c in det], [c.n_params for c in det], floor,
-                            [separating_components(c, best, n_heldout) for c in det], chance)
+                            [separating_components(c, best, n_heldout) for c in det],
+                            [chance(c, best) if chance is not None and c is not best else 0.0 for c in det])
     with_random_share(ranking, {id(c): w for c, w in zip(det, weights)}, presence)
     return ranking
 
@@ -231,21 +240,18 @@ def named_probability(ranking: list) -> dict[str, float]:
     return dict(sorted(out.items(), key=lambda kv: -kv[1]))
 
 
-def chance_floor(floor: float, turb) -> float:
-    """The noise floor `floor` and the offset the family's turbulence (`turb`,
-    a `turbulence.RandomEffect`) leaves by chance, added in quadrature."""
-    return math.hypot(floor, turb.steady_floor_m)
-
-
 def within_chance(sel: Selection, turb, floor: float) -> list[str]:
     """The events `sel` selected whose step `acceptance` refuses against the
-    `chance_floor`; none unless the turbulence's random motion is real."""
+    noise floor `widened` by what the turbulence (`turb`, a
+    `turbulence.RandomEffect`) explains by chance along the step's own
+    pattern (`RandomEffect.chance_offset`); none unless its random motion is
+    real."""
     if sel.chosen is None or turb.estimate is None or not turb.estimate.real:
         return []
-    wider = chance_floor(floor, turb)
-    return [s["added"] for s in sel.steps
-            if s.get("accepted") and not s.get("standing") and s.get("added") in sel.chosen.effects
-            and acceptance(s["gain_m"], s["new_params"], s["gap_heldout_before_m"], wider)]
+    return [s["added"] for s, before, after in sel.additions()
+            if not s.get("standing") and s["added"] in sel.chosen.effects
+            and acceptance(s["gain_m"], s["new_params"], s["gap_heldout_before_m"],
+                           widened(floor, turb.chance_offset, before, after))]
 
 
 def _simulated(c: Candidate | None) -> dict:
@@ -297,15 +303,15 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     turb = random_candidate(paths, base, sel.chosen, setup, mapper)
     chance = within_chance(sel, turb, floor)
     if chance:
-        # a random motion's low frequencies lie alike in both halves of a log: a steady
-        # effect fitted to them cuts the held-out gap too, so once the motion is real the
-        # noise a deterministic addition must beat includes the offset it leaves by chance
-        wider = chance_floor(floor, turb)
-        say(f"{', '.join(chance)} within the offset turbulence of {turb.estimate.sigma_mps:.2f} m/s leaves by "
-            f"chance: selecting again against {wider:.3f} m")
-        sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, wider, say=say)
-        sel.stopped += (f" (against the noise floor and the offset the random motion leaves by chance, "
-                        f"{wider:.3f} m: {', '.join(chance)} had been accepted within it)")
+        # a random motion's low frequencies lie alike in both halves of a log: an effect
+        # whose pattern they share cuts the held-out gap by chance too, so once the motion
+        # is real each step must beat what it explains along that step's pattern as well
+        say(f"{', '.join(chance)} within what turbulence of {turb.estimate.sigma_mps:.2f} m/s explains by chance "
+            f"along its pattern: selecting again, each step against the noise floor and that")
+        sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say,
+                             chance=turb.chance_offset)
+        sel.stopped += (f" (each step against the noise floor and what the random motion explains by chance "
+                        f"along its pattern: {', '.join(chance)} had been accepted within it)")
         turb = random_candidate(paths, base, sel.chosen, setup, mapper)
     failed += sel.failed
     excluded.pop("turbulence", None)
@@ -331,11 +337,12 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # the evidence's independent pieces, counted in what the selected set leaves
     n_eff = effective_components([evaluate(p, _simulated(sel.chosen), setup) for p in paths])
     ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff, setup.prior_effects,
-                                                random_presence(turb.estimate), turb.steady_floor_m),
+                                                random_presence(turb.estimate), turb.chance_offset),
                                  accepted=sel.chosen is not None and "turbulence" in sel.chosen.effects)
     if ranking[0] is none and not none.why:
-        none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x the offset the day's air "
-                    f"(turbulence of {turb.estimate.sigma_mps:.2f} m/s) leaves by chance ({turb.steady_floor_m:.3f} m)")
+        none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x what the day's air "
+                    f"(turbulence of {turb.estimate.sigma_mps:.2f} m/s) explains by chance along its pattern "
+                    f"({turb.chance_offset(None, sel.chosen):.3f} m)")
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation's deterministic effects are in
     # (their parameters fitted on all logs): what is left for the next effect to

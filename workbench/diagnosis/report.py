@@ -401,10 +401,12 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                 f"to {diag.get('max_effects', '?')}, the effect that most cuts the held-out gap while what it "
                 f"explains of the gap (in quadrature) beats {NOISE_FACTOR:g}× the noise floor and its cut beats "
                 f"{PARAM_PENALTY:g} × its new parameters × the gap left (once turbulence's random motion is real, "
-                f"the noise includes the offset it leaves by chance); the selected set ranks first, then the other "
+                f"the noise includes what it explains by chance along the addition's own pattern, from an "
+                f"ensemble of seeded runs); the selected set ranks first, then the other "
                 f"candidates fitted on the way by held-out gap × (1 + {PARAM_PENALTY:g} per parameter). A gap under "
                 f"{NOISE_FACTOR:g}× its noise floor is noise. Probabilities: Akaike weights of the held-out "
-                f"residuals, each candidate against the best over the components in which the two differ; a set "
+                f"residuals, each candidate against the best over the components in which the two differ, the "
+                f"evidence per m² at most what the selection's own test allows; a set "
                 f"with turbulence takes, of its deterministic set's weight, the probability that the random motion "
                 f"is real and at least light. Scheduler: {esc(diag.get('scheduler'))}.")]
     for name, d in diag["families"].items():

@@ -21,7 +21,10 @@ after^2) > `NOISE_FACTOR` x the noise floor (gaps add in quadrature), and its
 held-out gain over the current set (current gap minus its gap, m) beats the
 parameter penalty, gain > `PARAM_PENALTY` x (its new parameters) x the
 current held-out gap: each parameter must buy `PARAM_PENALTY` of what is left
-(Occam's rule).
+(Occam's rule). Given `chance` (once a real random motion is measured), the
+noise floor of each addition is `widened` by what that motion explains by
+chance along the addition's own pattern, and an addition within it is set
+aside before the step chooses.
 Once it stops, backward elimination (`_backward`) drops a selected event
 that the later ones made redundant.
 Otherwise, or at `MAX_EFFECTS` effects, the selection stops and says why.
@@ -133,6 +136,14 @@ def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str
     return None
 
 
+def widened(floor: float, chance: Callable | None, before: Candidate | None, after: Candidate | None) -> float:
+    """The noise floor a change from the set `before` to `after` (None: the
+    baseline) must beat: `floor`, and where a real random motion is measured
+    what it explains along the change's pattern by chance (`chance(before,
+    after)`, m, `turbulence.RandomEffect.chance_offset`), in quadrature."""
+    return math.hypot(floor, chance(before, after)) if chance is not None else floor
+
+
 def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
     """The addition a step takes among `fits`: of those whose held-out gap
     is within the noise floor `floor` of the best (the data cannot tell them
@@ -145,14 +156,24 @@ def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
 
 
 def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
-          prior: dict | None = None) -> tuple[Candidate, str | None]:
+          prior: dict | None = None, chance: Callable | None = None) -> tuple[Candidate, str | None]:
     """(the addition a step takes, why it is refused or None). The best
     (`choose`); but when its fit is implausible (`explanation.implausibility`:
     on a search bound or outside its physical range, standing in for another
     effect) and a plausible addition's held-out gap is similar, within the
     noise floor or one parameter's worth of the gap left (`PARAM_PENALTY` x
     `current`), the plausible one first, the implausible one only if the
-    plausible one is refused and it is not."""
+    plausible one is refused and it is not. With `chance` (a function of the
+    set before and after: what a real random motion explains by chance along
+    the change's pattern), each addition is held to the noise floor
+    `widened` by it, and one within it is set aside before the best is
+    chosen: a random motion's low frequencies may favour a steady effect
+    that explains by chance more than another explains for real."""
+    def verdict(c):
+        n_new = c.n_params - (chosen.n_params if chosen else 0)
+        return acceptance(current - c.gap_after_heldout, n_new, current, widened(floor, chance, chosen, c))
+    if chance is not None:
+        ok = [c for c in ok if verdict(c) is None] or ok
     best = choose(ok, floor, prior)
     plausible = [c for c in ok if not implausibility(c)]
     tries = [best]
@@ -162,8 +183,7 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
             tries = [alt, best]
     verdicts = []
     for c in tries:
-        n_new = c.n_params - (chosen.n_params if chosen else 0)
-        verdicts.append((c, acceptance(current - c.gap_after_heldout, n_new, current, floor)))
+        verdicts.append((c, verdict(c)))
         if verdicts[-1][1] is None:
             return verdicts[-1]
     return verdicts[0]
@@ -182,6 +202,20 @@ class Selection:
     steps: list
     stopped: str
 
+    def additions(self) -> list[tuple[dict, Candidate | None, Candidate]]:
+        """(step, the set before it, the set it made) for every accepted step
+        that added an effect (the model-form step 0 included), in order; None
+        for the baseline."""
+        out, current = [], None
+        for s in self.steps:
+            made = next((c for c in self.fitted if c.step == s["step"] and c.effect == s["candidate"]), None)
+            if not s.get("accepted"):
+                continue
+            if "added" in s and made is not None:
+                out.append((s, current, made))
+            current = made
+        return out
+
     def to_json(self) -> dict:
         return {"effects": list(self.chosen.effects) if self.chosen else [],
                 "shares": dict(self.chosen.shares) if self.chosen else {}, "steps": self.steps,
@@ -189,9 +223,11 @@ class Selection:
 
 
 def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before: float, floor: float,
-                   score: Callable = score_candidate, say: Callable[[str], None] = lambda s: None) -> Selection:
+                   score: Callable = score_candidate, say: Callable[[str], None] = lambda s: None,
+                   chance: Callable | None = None) -> Selection:
     """Forward selection over `pool` (effect names) from the baseline, whose
-    held-out gap is `gap_before` (m), against the noise floor `floor` (m)."""
+    held-out gap is `gap_before` (m), against the noise floor `floor` (m),
+    each step's widened by `chance` when given (`widened`)."""
     chosen, current, fitted, failed, steps, dropped = None, gap_before, [], [], [], set()
     stopped = f"{MAX_EFFECTS} effects selected (the most forward selection adds)"
     standing = ordered(e for e in pool if EFFECTS[e].model_form)
@@ -239,7 +275,7 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         if not ok:
             stopped = f"step {k}: no addition could be simulated"
             break
-        best, refused = _take(ok, chosen, current, floor, setup.prior_effects)
+        best, refused = _take(ok, chosen, current, floor, setup.prior_effects, chance)
         added = next(e for e in best.effects if e not in selected)
         n_new = best.n_params - (chosen.n_params if chosen else 0)
         gain = current - best.gap_after_heldout
@@ -259,11 +295,12 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         say(f"step {k}: {added} accepted, held-out gap {current:.3f} m")
     if chosen is not None:
         chosen, stopped = _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed,
-                                    stopped, say)
+                                    stopped, say, chance)
     return Selection(chosen, fitted, failed, steps, stopped)
 
 
-def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, stopped, say):
+def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, stopped, say,
+              chance=None):
     """Backward elimination once forward selection stops: each selected event
     refitted out of the set (the others polished from their values); the one
     whose removal costs least goes when, added back, its gain would be
@@ -289,7 +326,7 @@ def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fit
                 continue
             without = c.gap_after_heldout if c is not None else gap_before
             n_e = chosen.n_params - (c.n_params if c is not None else 0)
-            if acceptance(without - chosen.gap_after_heldout, n_e, without, floor):
+            if acceptance(without - chosen.gap_after_heldout, n_e, without, widened(floor, chance, c, chosen)):
                 costs.append((without - chosen.gap_after_heldout, e, c, without))
         failed += [c for c in out if not c.success]
         if not costs:

@@ -49,14 +49,18 @@ the gap). It explains random variance only: never a steady offset, and it
 has no realisation to simulate (the where-map after a candidate with it
 simulates its deterministic effects only).
 
-The steady floor (`steady_floor`, `RandomEffect.credit_steady`): the RMS of the gap
-components' shift a turbulence of sigma_hat leaves by chance (from the same
-ensemble; over a trail's steady components that is the mean offset over the
-test's window, its low-frequency content). A deterministic candidate is
-credited only when the held-out mean square it explains beats
-`NOISE_FACTOR` times that floor (squared), as a gap beats its noise floor;
+The steady floor (`steady_floor`): the RMS of the gap components' shift a
+turbulence of sigma_hat leaves by chance (from the same ensemble; over a
+trail's steady components that is the mean offset over the test's window,
+its low-frequency content). What a deterministic change explains of it by
+chance is only its projection on the change's own pattern
+(`RandomEffect.chance_offset`, over the ensemble's held-out shifts): a steady
+effect's pattern shares the random motion's low frequencies, a lag's phase
+or the bow wave before contact barely does. A deterministic candidate is
+credited (`RandomEffect.credit_steady`) only when the held-out gap it
+explains beats `NOISE_FACTOR` times that, as a gap beats its noise floor;
 when the turbulence itself is the everyday air (refused as an event), a
-candidate within that floor ranks behind "none".
+candidate within it ranks behind "none".
 """
 from __future__ import annotations
 
@@ -72,7 +76,7 @@ from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import (REPRODUCIBILITY_PROBES, SIM_FAILURES, evaluate, gap, irreproducible,
                                           observed, record, reproducibility_weights, with_prior)
 from workbench.diagnosis.result import Candidate
-from workbench.diagnosis.fit import splitter_for
+from workbench.diagnosis.fit import baseline_held_out, splitter_for
 from workbench.diagnosis.setup import NOISE_FACTOR, Setup
 from workbench.errors import SimulationFailed
 from workbench.simlog import result_to_record
@@ -248,7 +252,7 @@ def log_statistics(job) -> LogStatistics:
     path, effects, setup, seed0 = job
     ob = observed(path)
     base = _run(path, effects, setup)
-    r0 = residual(ob, base)
+    r0 = residual(ob, base, signatures=setup.signatures)
     over = with_prior(effects, setup)
     probes = []
     for effect, name, factor in REPRODUCIBILITY_PROBES:
@@ -265,7 +269,7 @@ def log_statistics(job) -> LogStatistics:
         turb = {"sigma_mps": SIGMA_REF_MPS, "length_scale_m": LENGTH_SCALE_M, "seed": seed0 + k}
         sim = _run(path, {**effects, "turbulence": turb}, setup)
         members.append(_at_fixes(sim, ob.fix_t))
-        gresp.append(w * (residual(ob, sim).r - r0.r))
+        gresp.append(w * (residual(ob, sim, signatures=setup.signatures).r - r0.r))
     return statistics_of(path, ob.fix_t, ob.fix_xyz, _at_fixes(base, ob.fix_t), members, gresp, r0.segment, probes)
 
 
@@ -371,6 +375,16 @@ def steady_floor(stats: list[LogStatistics], sigma_mps: float) -> float:
     return sigma_mps * math.sqrt(float(np.mean(u))) if len(u) else 0.0
 
 
+def held_out_shift(stats: list[LogStatistics], folds, sigma_mps: float) -> np.ndarray:
+    """(members, components): each ensemble member's shift of the gap
+    components at `sigma_mps` on the `folds`' held-out parts, in the order a
+    candidate's held-out components list them (`fit.baseline_held_out`)."""
+    index = {st.path: i for i, st in enumerate(stats)}
+    cols = [stats[i].gap_resp if s is None else stats[i].gap_resp[:, stats[i].gap_segment == s]
+            for i, s in _parts_of([p for f in folds for p in f.test], index)]
+    return np.concatenate(cols, axis=1) * (sigma_mps / SIGMA_REF_MPS)
+
+
 @dataclasses.dataclass
 class RandomEffect:
     """The turbulence of a family: its `candidate` alone (against the
@@ -384,11 +398,43 @@ class RandomEffect:
     estimate: SigmaEstimate | None
     steady_floor_m: float
     joint: Candidate | None = None
+    shift: np.ndarray | None = None
+    baseline: list | None = None
+
+    def chance_offset(self, a: Candidate | None, b: Candidate | None) -> float:
+        """The part of the held-out gap (m) a deterministic change from `a` to
+        `b` (candidates; None the baseline, `baseline` its held-out
+        components) explains by chance when the random motion of sigma_hat is
+        all there is: sqrt(E[(u . d)^2] / N) over the ensemble's held-out
+        shifts u (`shift`, the members at sigma_hat), d the unit pattern of
+        the change (a's held-out components minus b's), N the components. A
+        random motion's low frequencies lie alike in both halves of a log, so
+        an effect whose pattern they share cuts the held-out gap by chance;
+        one whose pattern they miss (a lag's phase, the bow wave before
+        contact) does not. One direction: the pattern the fit found, which a
+        fit of several parameters widens little where the random motion's
+        low-frequency content is a few modes. The whole steady floor where
+        the pattern is unknown (no held-out components kept, or not the
+        same components); 0 unless the random motion is real."""
+        if self.estimate is None or not self.estimate.real:
+            return 0.0
+        x, y = (c.held_out if c is not None else self.baseline for c in (a, b))
+        if self.shift is None or x is None or y is None or len(x) != len(y) \
+                or any(len(p.r) != len(q.r) for p, q in zip(x, y)):
+            return self.steady_floor_m
+        d = np.concatenate([p.r - q.r for p, q in zip(x, y)]) if x else np.empty(0)
+        if len(d) != self.shift.shape[1]:
+            return self.steady_floor_m
+        norm = float(np.linalg.norm(d))
+        if norm == 0.0:
+            return 0.0
+        return math.sqrt(float(np.mean((self.shift @ (d / norm)) ** 2)) / len(d))
 
     def credit_steady(self, ranking: list, accepted: bool = True) -> list:
         """`ranking` with every deterministic candidate ahead of the turbulence
         whose held-out gain over the baseline, sqrt(g_before^2 - g_after^2), is
-        within NOISE_FACTOR x the steady floor moved right behind it (the
+        within NOISE_FACTOR x the offset the random motion leaves by chance
+        along its pattern (`chance_offset`) moved right behind it (the
         others keep their order): a steady effect must not absorb a random
         motion. When the selection did not accept the turbulence (`accepted`
         False: the everyday air of a flight, calmer than light), the yardstick
@@ -413,11 +459,12 @@ class RandomEffect:
                     moved.append(c)
                 continue
             gain = math.sqrt(max(c.gap_before ** 2 - c.gap_after_heldout ** 2, 0.0))
-            if gain <= NOISE_FACTOR * self.steady_floor_m:
+            chance = self.chance_offset(None, c)
+            if gain <= NOISE_FACTOR * chance:
                 c.score = max(c.score, anchor.score * (1 + 1e-9))
                 c.why_not_first = (f"its held-out gain {gain:.3f} m is within {NOISE_FACTOR:g} x the offset a "
-                                   f"turbulence of {est.sigma_mps:.2f} m/s leaves by chance "
-                                   f"({self.steady_floor_m:.3f} m)")
+                                   f"turbulence of {est.sigma_mps:.2f} m/s leaves by chance along its pattern "
+                                   f"({chance:.3f} m)")
                 moved.append(c)
         rest = [c for c in ranking if not any(c is m for m in moved)]
         at = rest.index(anchor) + 1
@@ -457,4 +504,7 @@ def random_candidate(paths: list[str], base: dict, chosen: Candidate | None, set
         return RandomEffect(Candidate("turbulence", ["turbulence"], 1, success=False, message=str(exc),
                                       wall_s=time.perf_counter() - t_start), None, 0.0)
     cand.wall_s = time.perf_counter() - t_start
-    return RandomEffect(cand, est, steady_floor(stats, est.sigma_mps) if est.real else 0.0, joint)
+    if not est.real:
+        return RandomEffect(cand, est, 0.0, joint)
+    return RandomEffect(cand, est, steady_floor(stats, est.sigma_mps), joint,
+                        held_out_shift(stats, folds, est.sigma_mps), baseline_held_out(paths, base))
