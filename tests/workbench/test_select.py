@@ -391,6 +391,20 @@ def test_an_event_within_the_offset_a_real_random_motion_leaves_by_chance_is_sel
     assert 0.1 < probabilities(g, [1, 2], 0.015, 100.0, chance=0.17)[1] < 0.5
 
 
+@pytest.mark.parametrize("tried", [1, 2, 7, 30])
+def test_the_best_of_several_additions_clears_its_chance_gain_as_often_as_one_clears_noise_factor(tried):
+    # Sidak: the largest of `tried` independent normal chance gains is beyond z as often as one is
+    # beyond NOISE_FACTOR standard deviations
+    from scipy.stats import norm
+    z = SEL.chance_quantile(tried)
+    assert_allclose(1.0 - (1.0 - 2.0 * norm.sf(z)) ** tried, 2.0 * norm.sf(NOISE_FACTOR), rtol=1e-9)
+    assert z >= NOISE_FACTOR
+    # the widened floor: NOISE_FACTOR x it is the noise's bar and z chance offsets, in quadrature
+    assert_allclose(NOISE_FACTOR * SEL.widened(0.01, lambda a, b: 0.03, None, None, tried),
+                    math.hypot(NOISE_FACTOR * 0.01, z * 0.03), rtol=1e-12)
+    assert SEL.widened(0.01, None, None, None, tried) == 0.01
+
+
 def test_a_random_motion_explains_by_chance_only_what_lies_along_a_steps_own_pattern():
     from workbench.diagnosis.rank import within_chance
     from workbench.diagnosis.turbulence import RandomEffect
@@ -424,8 +438,9 @@ def test_a_random_motion_explains_by_chance_only_what_lies_along_a_steps_own_pat
     assert RandomEffect(turb.candidate, _est(), offset).chance_offset(None, lag) == offset
     assert RandomEffect(turb.candidate, _est(real=False), 0.0, shift=shift, baseline=base.held_out) \
         .chance_offset(None, wind) == 0.0
-    # a selection that took both: only the steady wind is within its chance offset,
-    # 2 x hypot(0.01, 0.03) = 0.063 m > 0.05 m; the lag's 0.05 m beats 2 x 0.01 m
+    # a selection that took both: only the steady wind is within its chance offset, chosen as
+    # the better of two: hypot(2 x 0.01, 2.27 x 0.03) = 0.071 m > 0.05 m; the lag's 0.05 m
+    # beats 2 x 0.01 m
     g0 = base.gap_after_heldout
     sel = SEL.forward_select(["L1"], ["steady_wind", "sensor_lag"], Setup(), _serial, g0, floor, score=score)
     assert set(sel.chosen.effects) == {"steady_wind", "sensor_lag"}

@@ -34,8 +34,10 @@ several at once by forward selection, score each held out and rank them.
    effect's own pattern moved behind it, or behind "none" when it is only the
    everyday air. Once that random motion is real, a deterministic event must
    beat it too: when a selected step's gain is within the noise floor and
-   what the turbulence explains by chance along the step's pattern, added in
-   quadrature (`within_chance`, `turbulence.RandomEffect.chance_offset`), the
+   what the turbulence explains by chance along the step's pattern (at
+   Sidak's quantile for the best of the additions the step tried,
+   `select.chance_quantile`), added in quadrature (`within_chance`,
+   `turbulence.RandomEffect.chance_offset`), the
    selection runs again with every step held to that (a random motion's low
    frequencies lie alike in both halves of a log, so an effect whose pattern
    they share cuts the held-out gap too; one whose pattern they miss, a
@@ -244,14 +246,14 @@ def within_chance(sel: Selection, turb, floor: float) -> list[str]:
     """The events `sel` selected whose step `acceptance` refuses against the
     noise floor `widened` by what the turbulence (`turb`, a
     `turbulence.RandomEffect`) explains by chance along the step's own
-    pattern (`RandomEffect.chance_offset`); none unless its random motion is
-    real."""
+    pattern (`RandomEffect.chance_offset`), the step's pick the best of all
+    it tried; none unless its random motion is real."""
     if sel.chosen is None or turb.estimate is None or not turb.estimate.real:
         return []
     return [s["added"] for s, before, after in sel.additions()
             if not s.get("standing") and s["added"] in sel.chosen.effects
             and acceptance(s["gain_m"], s["new_params"], s["gap_heldout_before_m"],
-                           widened(floor, turb.chance_offset, before, after))]
+                           widened(floor, turb.chance_offset, before, after, 1 + len(s["alternatives"])))]
 
 
 def _simulated(c: Candidate | None) -> dict:

@@ -43,6 +43,8 @@ import time
 from pathlib import Path
 from typing import Callable
 
+from scipy.special import erfcinv
+
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.explanation import explain, implausibility
@@ -136,12 +138,28 @@ def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str
     return None
 
 
-def widened(floor: float, chance: Callable | None, before: Candidate | None, after: Candidate | None) -> float:
+def chance_quantile(tried: int) -> float:
+    """How many standard deviations of its chance gain the best of `tried`
+    additions must clear so that a step takes one by chance no more often
+    than one addition clears `NOISE_FACTOR` of them (a two-sided normal tail,
+    4.6 % at 2): Sidak's quantile, the best of several being the largest of
+    their chance gains (2.0 for one, 2.7 for seven)."""
+    alpha = math.erfc(NOISE_FACTOR / math.sqrt(2.0))
+    return math.sqrt(2.0) * float(erfcinv(1.0 - (1.0 - alpha) ** (1.0 / max(tried, 1))))
+
+
+def widened(floor: float, chance: Callable | None, before: Candidate | None, after: Candidate | None,
+            tried: int = 1) -> float:
     """The noise floor a change from the set `before` to `after` (None: the
-    baseline) must beat: `floor`, and where a real random motion is measured
-    what it explains along the change's pattern by chance (`chance(before,
-    after)`, m, `turbulence.RandomEffect.chance_offset`), in quadrature."""
-    return math.hypot(floor, chance(before, after)) if chance is not None else floor
+    baseline) must beat, chosen as the best of `tried` additions: `floor`,
+    and where a real random motion is measured what it explains along the
+    change's pattern by chance (`chance(before, after)`, m,
+    `turbulence.RandomEffect.chance_offset`) at `chance_quantile(tried)`
+    standard deviations over `NOISE_FACTOR`'s, in quadrature; so that
+    `NOISE_FACTOR` x it is hypot(NOISE_FACTOR x floor, z x chance)."""
+    if chance is None:
+        return floor
+    return math.hypot(floor, chance(before, after) * chance_quantile(tried) / NOISE_FACTOR)
 
 
 def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
@@ -166,12 +184,14 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
     plausible one is refused and it is not. With `chance` (a function of the
     set before and after: what a real random motion explains by chance along
     the change's pattern), each addition is held to the noise floor
-    `widened` by it, and one within it is set aside before the best is
+    `widened` by it (the best of all tried), and one within it is set aside before the best is
     chosen: a random motion's low frequencies may favour a steady effect
     that explains by chance more than another explains for real."""
+    tried = len(ok)
+
     def verdict(c):
         n_new = c.n_params - (chosen.n_params if chosen else 0)
-        return acceptance(current - c.gap_after_heldout, n_new, current, widened(floor, chance, chosen, c))
+        return acceptance(current - c.gap_after_heldout, n_new, current, widened(floor, chance, chosen, c, tried))
     if chance is not None:
         ok = [c for c in ok if verdict(c) is None] or ok
     best = choose(ok, floor, prior)
