@@ -44,7 +44,8 @@ Part = Union[str, tuple]     # a log path, or (path, segment 0 | 1)
 POLISH_TOL = 1e-3
 
 
-def _part(p: Part) -> tuple[str, int | None]:
+def path_and_segment(p: Part) -> tuple[str, int | None]:
+    """A fold part's log path and segment (None: the whole log)."""
     return (str(p[0]), p[1]) if isinstance(p, tuple) else (str(p), None)
 
 
@@ -67,7 +68,7 @@ def _of(R, seg: int | None) -> Components:
 
 def components(part: Part, effects: dict, setup: Setup) -> Components:
     """`part`'s residual components simulated with `effects`."""
-    path, seg = _part(part)
+    path, seg = path_and_segment(part)
     return _of(evaluate(path, effects, setup), seg)
 
 
@@ -76,7 +77,7 @@ def baseline_held_out(paths: Sequence[str], base: dict) -> list[Components]:
     fold's held-out parts, in the order a candidate's `held_out` lists them
     (the folds of `splitter_for`)."""
     return [_of(base[path], seg) for fold in splitter_for(paths).split(paths)
-            for path, seg in map(_part, fold.test)]
+            for path, seg in map(path_and_segment, fold.test)]
 
 
 def effects_at(candidate: tuple, x) -> dict:

@@ -226,7 +226,7 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     best = min(det, key=lambda c: c.gap_after_heldout)
     weights = probabilities([c.gap_after_heldout for c in det], [c.n_params for c in det], floor,
                             [separating_components(c, best, n_heldout) for c in det],
-                            [chance(c, best) if chance is not None and c is not best else 0.0 for c in det])
+                            [chance(c, best) if chance is not None else 0.0 for c in det])
     with_random_share(ranking, {id(c): w for c, w in zip(det, weights)}, presence)
     return ranking
 

@@ -228,9 +228,9 @@ class Selection:
         for the baseline."""
         out, current = [], None
         for s in self.steps:
-            made = next((c for c in self.fitted if c.step == s["step"] and c.effect == s["candidate"]), None)
             if not s.get("accepted"):
                 continue
+            made = next((c for c in self.fitted if c.step == s["step"] and c.effect == s["candidate"]), None)
             if "added" in s and made is not None:
                 out.append((s, current, made))
             current = made

@@ -76,7 +76,7 @@ from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import (REPRODUCIBILITY_PROBES, SIM_FAILURES, evaluate, gap, irreproducible,
                                           observed, record, reproducibility_weights, with_prior)
 from workbench.diagnosis.result import Candidate
-from workbench.diagnosis.fit import baseline_held_out, splitter_for
+from workbench.diagnosis.fit import baseline_held_out, path_and_segment, splitter_for
 from workbench.diagnosis.setup import NOISE_FACTOR, Setup
 from workbench.errors import SimulationFailed
 from workbench.simlog import result_to_record
@@ -323,7 +323,8 @@ def estimate_sigma(stats: list[LogStatistics], parts: list | None = None) -> Sig
 
 
 def _parts_of(fold_parts, index) -> list:
-    return [(index[p], None) if isinstance(p, str) else (index[str(p[0])], p[1]) for p in fold_parts]
+    """(stats index, segment or None) of each fold part (`fit.Part`)."""
+    return [(index[path], seg) for path, seg in map(path_and_segment, fold_parts)]
 
 
 def _part_gap(st: LogStatistics, base, seg, s2: float) -> tuple[float, float]:
