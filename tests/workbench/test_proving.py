@@ -127,13 +127,23 @@ def test_draws_of_calibrated_parameters_lie_in_their_search_ranges():
                     assert par.search[0] <= v <= par.search[1], (name, k, v)
 
 
-def test_every_library_effect_is_drawn_at_least_three_times_in_the_single_family():
+@pytest.mark.parametrize("seed", [7, 2026])
+@pytest.mark.parametrize("n", [3 * 11, 48])
+def test_every_library_effect_is_drawn_at_least_three_times_in_the_single_family(n, seed):
     # every event a flight can carry; a model-form effect is in every log's form instead
     events = {e for e in EFFECTS if not EFFECTS[e].model_form}
     assert {e for effs in KIND_EFFECTS.values() for e in effs} == events
-    n = len(KIND_EFFECTS) * max(len(v) for v in KIND_EFFECTS.values()) * 3
-    counts = Counter(e for _, effs, _ in campaign.plan(n, "single", 7) for e in effs)
-    assert min(counts[e] for e in events) >= 3
+    assert campaign.MIN_EACH * len(events) <= n   # 33 logs: the least that holds each event three times
+    single = campaign.plan(n, "single", seed)
+    counts = Counter(e for _, effs, _ in single for e in effs)
+    assert min(counts[e] for e in events) >= campaign.MIN_EACH
+    # each effect on every kind that can carry it once it has been drawn that often, and no kind starved
+    pairs = Counter((k, e) for k, effs, _ in single for e in effs)
+    assert all(pairs[k, e] >= 1 for e in events for k in KIND_EFFECTS
+               if e in KIND_EFFECTS[k] and counts[e] >= sum(e in v for v in KIND_EFFECTS.values()))
+    kinds = Counter(k for k, _, _ in single)
+    assert min(kinds.values()) >= n // (2 * len(KIND_EFFECTS))
+    assert all(len(effs) == 1 and effs[0] in KIND_EFFECTS[k] for k, effs, _ in single)
     multi = campaign.plan(12, "multi", 7)
     assert all(2 <= len(set(effs)) <= 3 and set(effs) <= set(KIND_EFFECTS[k]) for k, effs, _ in multi)
 

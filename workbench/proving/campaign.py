@@ -25,6 +25,7 @@ import json
 import math
 import tempfile
 import time
+from collections import Counter
 from typing import Callable
 from pathlib import Path
 
@@ -43,29 +44,39 @@ from workbench.proving.generate import KIND_EFFECTS, generate
 from workbench.simlog import result_to_record
 
 FAMILIES = ("single", "multi")
-MIN_EACH = 3   # every effect at least this often in the one-at-a-time family when n allows
+MIN_EACH = 3   # every effect at least this often in the one-at-a-time family (`plan`)
 
 
 def plan(n: int, family: str, seed: int) -> list[tuple[str, tuple, int]]:
-    """n (kind, effects, seed) draws. single: kinds in turn, each kind's
-    effects in turn in an order shuffled once by `seed` (a small campaign
-    still sees many effects), so every effect appears as often as n allows;
-    multi: 2-3 distinct effects of the kind at random."""
+    """n (kind, effects, seed) draws. single: every flight event in turn (an
+    order shuffled once by `seed`), each on the kind that can carry it that
+    has seen it least, then that is used least so far: every effect appears
+    as often as n allows, at least `MIN_EACH` times from n = `MIN_EACH` x the
+    number of events (gust, bow wave and reel lag act on one kind only, and
+    kinds in turn would leave them one or two logs in 48), on each kind that
+    can carry it, and the kinds stay as even as that leaves them; multi:
+    kinds in turn, 2-3 distinct effects of the kind at random."""
     if family not in FAMILIES:
         raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
     rng = np.random.default_rng([seed, FAMILIES.index(family)])   # the families draw apart
     kinds = list(KIND_EFFECTS)
-    order = {k: [KIND_EFFECTS[k][j] for j in rng.permutation(len(KIND_EFFECTS[k]))] for k in kinds}
+    shuffled = {k: [KIND_EFFECTS[k][j] for j in rng.permutation(len(KIND_EFFECTS[k]))] for k in kinds}
     seeds = rng.integers(1, 2 ** 31 - 1, size=n)
+    if family == "multi":
+        return [(kinds[i % len(kinds)],
+                 tuple(sorted(rng.choice(shuffled[kinds[i % len(kinds)]], size=int(rng.integers(2, 4)),
+                                         replace=False).tolist())), int(s)) for i, s in enumerate(seeds)]
+    events = sorted({e for effs in KIND_EFFECTS.values() for e in effs})
+    order = [events[j] for j in rng.permutation(len(events))]
+    used, pairs = Counter(), Counter()
     out = []
     for i, s in enumerate(seeds):
-        kind = kinds[i % len(kinds)]
-        effs = order[kind]
-        if family == "single":   # the kind's effects in turn
-            chosen = (effs[(i // len(kinds)) % len(effs)],)
-        else:
-            chosen = tuple(sorted(rng.choice(effs, size=int(rng.integers(2, 4)), replace=False).tolist()))
-        out.append((kind, chosen, int(s)))
+        effect = order[i % len(order)]
+        kind = min((k for k in kinds if effect in KIND_EFFECTS[k]),
+                   key=lambda k: (pairs[k, effect], used[k], kinds.index(k)))
+        used[kind] += 1
+        pairs[kind, effect] += 1
+        out.append((kind, (effect,), int(s)))
     return out
 
 
