@@ -74,6 +74,7 @@ class Param:
     probe: Optional[float] = None
     log: bool = False
     tolerance: Optional[float] = None
+    scan_s: Optional[float] = None
 
     def check(self, value) -> Optional[str]:
         """A complaint about `value`, or None."""
@@ -448,17 +449,20 @@ _register(Effect(
            "`start_s` and reaches the drogue a hose length / V later."),
     source="MIL-HDBK-1797 (1997) Sec. 4.9.2, discrete gust model (MIL-F-8785C Sec. 3.7.2).",
     params={
-        "vertical_mps": Param("m/s", 3.0, -20.0, 20.0, "gust amplitude V_m, up", off=0.0),
+        # a vertical gust, as MIL-HDBK-1797 sizes it for a pitch response; its length
+        # held at the default (the fitted time and amplitude take most of a shorter
+        # or longer one's signature on a drogue whose own mode outlasts the gust)
+        "vertical_mps": Param("m/s", 3.0, -20.0, 20.0, "gust amplitude V_m, up", off=0.0, search=(-6.0, 6.0),
+                              probe=2.0),
         "lateral_mps": Param("m/s", 0.0, -20.0, 20.0, "gust amplitude V_m, to starboard", off=0.0),
         "longitudinal_mps": Param("m/s", 0.0, -20.0, 20.0, "gust amplitude V_m, downstream", off=0.0),
         "length_m": Param("m", 100.0, 1.0, 2000.0, "ramp length d_m", off=100.0),
-        "start_s": Param("s", 2.0, 0.0, 1e5, "time the front passes the tow point", off=2.0),
+        "start_s": Param("s", 2.0, 0.0, 1e5, "time the front passes the tow point", off=2.0,
+                         search=(0.0, 3600.0), probe=10.0, scan_s=1.0),
         "full_wave": Param("-", 1, 0, 1, "1: up and back down (pulse); 0: ramp and hold", integer=True,
                            off=1),
     },
-    apply=_apply_gust,
-    not_calibrated=("a transient whose timing and shape are free; a localised residual in one phase of the "
-                    "where-map is its signature")))
+    apply=_apply_gust))
 
 _register(Effect(
     "hose_drag", "Hose drag",

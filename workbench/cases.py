@@ -223,10 +223,12 @@ def _check_calibration(p: Path, v: dict) -> None:
     where = f"{p}: [[variants]] '{v['id']}'"
     if not (v["calibrate"] and v["calibrate_on"]):
         raise InputError(f"{where} needs both calibrate (effects) and calibrate_on (training logs)")
-    known = [e for e, eff in EFFECTS.items() if eff.calibrated]
+    # a transient at one log's own time (a gust's, `Param.scan_s`) is no calibration of a fleet of logs
+    known = [e for e, eff in EFFECTS.items() if eff.calibrated and not any(eff.params[k].scan_s for k in eff.calibrated)]
     for e in v["calibrate"]:
         if e not in known:
-            why = EFFECTS[e].not_calibrated if e in EFFECTS else f"known: {', '.join(known)}"
+            why = (EFFECTS[e].not_calibrated or "a transient at one log's own time") if e in EFFECTS \
+                else f"known: {', '.join(known)}"
             raise InputError(f"{where} calibrate: effect {e!r} cannot be calibrated ({why})")
 
 

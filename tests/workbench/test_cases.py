@@ -67,6 +67,8 @@ def test_demo_case_builds_the_data_sheet_hose():
     ("[tow_motion]", "[tow_motion\n", r"not valid TOML"),
     ("[run]", '[[variants]]\nid = "c"\ncalibrate = ["turbulence"]\ncalibrate_on = ["X"]\n\n[run]',
      r"\[\[variants\]\] 'c' calibrate: effect 'turbulence' cannot be calibrated \(a random field"),
+    ("[run]", '[[variants]]\nid = "c"\ncalibrate = ["gust"]\ncalibrate_on = ["X"]\n\n[run]',
+     r"'c' calibrate: effect 'gust' cannot be calibrated \(a transient at one log's own time"),
     ("[run]", '[[variants]]\nid = "c"\ncalibrate = ["drogue_lift"]\n\n[run]',
      r"'c' needs both calibrate \(effects\) and calibrate_on"),
 ])

@@ -16,10 +16,12 @@ from numpy.testing import assert_allclose
 
 from flighttest import read_record
 from solver.effects import EFFECTS
+from workbench.diagnosis.evaluate import evaluate, gap
 from workbench.diagnosis.explanation import implausibility
+from workbench.diagnosis.fit import EffectCalibrator
 from workbench.diagnosis.rank import plausible_first, probabilities
 from workbench.diagnosis.result import Candidate
-from workbench.diagnosis.setup import NOISE_FACTOR
+from workbench.diagnosis.setup import NOISE_FACTOR, Setup, one_log_event
 from workbench.proving import campaign
 from workbench.proving.generate import DRAWS, KIND_EFFECTS, TRACKER_HZ, generate
 from workbench.proving.physics import LossFactorHose
@@ -76,6 +78,13 @@ def test_probabilities_are_akaike_weights_of_the_held_out_gaps():
 def _cand(effect, params, gap, n_params=1):
     effs = [] if effect == "none" else effect.split("+")
     return Candidate(effect, effs, n_params, params=params, gap_after_heldout=gap)
+
+
+def test_a_time_in_the_log_is_no_bound_of_the_physics():
+    # a gust early in a log sits near its start time's search bound (0 s) and is plausible;
+    # its amplitude on its bound is not
+    assert implausibility(_cand("gust", {"gust": {"vertical_mps": 2.0, "start_s": 3.0}}, 0.1)) is None
+    assert "search bound" in implausibility(_cand("gust", {"gust": {"vertical_mps": 6.0, "start_s": 3.0}}, 0.1))
 
 
 def test_a_fit_on_its_search_bound_is_implausible():
@@ -161,6 +170,35 @@ def test_a_generated_log_keeps_the_log_contract(tmp_path, kind, effects):
     assert_allclose(np.median(dt), 1 / TRACKER_HZ, rtol=1e-6)   # stamps at the tracker's rate; jitter is in what they describe
     assert truth["effects"] == effects and set(truth["params"]) == set(effects)
     assert 80 <= truth["form"]["n_elements"] <= 120
+
+
+def test_a_gust_is_found_at_its_time_in_a_log_of_another_form(tmp_path):
+    # a 1-cosine gust in a doublet of the generator's form (80-120 elements, another
+    # damping law and drogue, a gust length the diagnosis does not fit): the scan of
+    # its time on one half of the log (every `scan_s`) and the polish put the front
+    # within a quarter of the scan of the truth, the amplitude within a third (the
+    # length held at its default and the form take the rest), and the other half,
+    # held out, is explained beyond the noise rule. The drogue lift is held at the
+    # generator's own scattered value, as a selected set's is when a step adds a gust.
+    path, truth = generate("pitch_doublet", ["gust"], 1000337184, tmp_path)
+    g = truth["params"]["gust"]
+    lift = {"drogue_lift": {"scale": truth["form"]["drogue_cl_factor"]}}
+    cal = EffectCalibrator(("drogue_lift", "gust"), Setup()).fit([(str(path), 0)], start=lift)
+    scan = EFFECTS["gust"].params["start_s"].scan_s
+    assert abs(cal.params_["gust"]["start_s"] - g["start_s"]) < scan / 4
+    assert_allclose(cal.params_["gust"]["vertical_mps"], g["vertical_mps"], rtol=1 / 3)
+    held = Setup()
+    without = evaluate(str(path), lift, held)
+    keep = without.segment == 1
+    before, after = gap(without.r[keep]), cal.score([(str(path), 1)])
+    floor = gap(without.floor[keep])
+    assert math.sqrt(before ** 2 - after ** 2) > NOISE_FACTOR * floor
+
+
+def test_a_transient_is_ranked_on_one_log_at_a_time():
+    # a gust's time is its own log's: a family of several logs does not share it
+    assert one_log_event("gust") and one_log_event("drogue_lift") is None
+    assert [e for e in EFFECTS if one_log_event(e)] == ["gust"]
 
 
 # ------------------------------------------------------------------- campaign

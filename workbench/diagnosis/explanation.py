@@ -59,7 +59,8 @@ BOUND_SHARE = 0.01   # a value within 1 % of its search range (in the search's s
 def implausibility(c: Candidate) -> str | None:
     """Why `c`'s fit is not physically plausible, or None: a value outside its
     parameter's physical range lo..hi, or on a bound of its search range (the
-    logs want it there or beyond: the effect is standing in for another)."""
+    logs want it there or beyond: the effect is standing in for another); a
+    time in the log (`Param.scan_s`) is bounded by the log, not the physics."""
     out = []
     for eff, name, p in calibrated_params(tuple(c.effects)):
         v = c.params.get(eff, {}).get(name)
@@ -67,7 +68,7 @@ def implausibility(c: Candidate) -> str | None:
             continue
         if not (p.lo <= v <= p.hi):
             out.append(f"{eff}.{name} = {v:.3g} outside its physical range {p.lo:g}..{p.hi:g} {p.unit}")
-        elif p.search and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
+        elif p.search and not p.scan_s and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
             out.append(f"{eff}.{name} = {v:.3g} on its search bound ({p.search[0]:g}..{p.search[1]:g})")
     return "; ".join(out) or None
 

@@ -5,7 +5,9 @@ in the scikit-learn estimator shape, and the folds it is scored held out on.
 parameters (those with a search range in the effect registry) on `parts`: a
 grid in the unit cube of the search ranges (10 points for one parameter,
 5 x 5 for two, 4 per axis beyond, plus the off point: the setup's prior
-value where it has one, `Setup.off`), then bounded least
+value where it has one, `Setup.off`; where a free parameter is a time in
+the log, `Param.scan_s`, that time every `scan_s` over the logs' span
+instead, its effect's amplitudes solved linearly at each, `_scan`), then bounded least
 squares from the best grid point, and for two or more parameters from the
 runner-up too. `fit(parts, start={effect: {param: value}})` warm-starts it
 (forward selection adding an effect to a fitted set): the parameters given
@@ -126,27 +128,35 @@ class EffectCalibrator:
 
         def res(u):
             return self._residual(parts, effects_at(candidate, [from_unit(p, ui) for p, ui in zip(ps, u)]))
-        # a dense first grid: the engagement's objective is rough in its parameters
-        # (slack-hose dynamics), so the local polish only refines what the grid found;
-        # it spans the free parameters only (a full grid over four to six is not
-        # affordable), the started ones held at their start values
-        grid_1d = np.linspace(0.0, 1.0, {1: 10, 2: 5}.get(len(free), 4))
-        free_points = np.stack(np.meshgrid(*[grid_1d] * len(free)), -1).reshape(-1, len(free)) if len(free) \
-            else np.empty((1, 0))
-        free_points = np.vstack([free_points, [[to_unit(ps[i], self.setup.off(cal[i][0], cal[i][1])) for i in free]]])
-        starts = []
-        for fp in free_points:
-            u0 = u_start.copy()
-            u0[free] = fp
-            starts.append(u0)
-        scored = sorted((gap(res(u)), i) for i, u in enumerate(starts))
+        off = [to_unit(ps[i], self.setup.off(cal[i][0], cal[i][1])) for i in free]
+        scanned = any(ps[i].scan_s for i in free)
+        if scanned:
+            starts, scored = self._scan(parts, res, cal, free, u_start, off)
+        else:
+            # a dense first grid: the engagement's objective is rough in its parameters
+            # (slack-hose dynamics), so the local polish only refines what the grid found;
+            # it spans the free parameters only (a full grid over four to six is not
+            # affordable), the started ones held at their start values
+            grid_1d = np.linspace(0.0, 1.0, {1: 10, 2: 5}.get(len(free), 4))
+            free_points = np.stack(np.meshgrid(*[grid_1d] * len(free)), -1).reshape(-1, len(free)) if len(free) \
+                else np.empty((1, 0))
+            free_points = np.vstack([free_points, [off]])
+            starts = []
+            for fp in free_points:
+                u0 = u_start.copy()
+                u0[free] = fp
+                starts.append(u0)
+            scored = sorted((gap(res(u)), i) for i, u in enumerate(starts))
         # refine from the best grid point, and for two or more free parameters from
-        # the runner-up too (a valley across the grid); starts are nudged off the
-        # bounds, where a projected gradient can vanish at a corner that is not a minimum
+        # the runner-up too (a valley across the grid), but for a scanned time, whose
+        # runner-up is the best's neighbour in the same valley; starts are nudged off the
+        # bounds, where a projected gradient can vanish at a corner that is not a minimum.
+        # A scanned time steps a quarter of its scan, not a share of its search range.
+        step = np.array([p.scan_s / 4.0 / (p.search[1] - p.search[0]) if p.scan_s else 0.02 for p in ps])
         best_gap, u, sol = scored[0][0], starts[scored[0][1]], None
-        for _, i in scored[:1 if len(free) <= 1 else 2]:
-            s = least_squares(res, np.clip(starts[i], 0.02, 0.98), bounds=(np.zeros(n), np.ones(n)),
-                              diff_step=0.02, max_nfev=8 * max(len(free), 1) + 4, x_scale=np.full(n, 0.1),
+        for _, i in scored[:1 if len(free) <= 1 or scanned else 2]:
+            s = least_squares(res, np.clip(starts[i], step, 1.0 - step), bounds=(np.zeros(n), np.ones(n)),
+                              diff_step=step, max_nfev=8 * max(len(free), 1) + 4, x_scale=5.0 * step,
                               ftol=POLISH_TOL, xtol=POLISH_TOL, gtol=POLISH_TOL)
             if sol is None or gap(s.fun) < gap(sol.fun):
                 sol = s
@@ -160,10 +170,10 @@ class EffectCalibrator:
         # zeroed on a parameter that ends at its bound)
         J = np.empty((len(r), n))
         for i in range(n):
-            step = 0.02 if u[i] + 0.02 <= 1.0 else -0.02
+            h = step[i] if u[i] + step[i] <= 1.0 else -step[i]
             du = np.array(u, float)
-            du[i] += step
-            J[:, i] = (res(du) - r) / step
+            du[i] += h
+            J[:, i] = (res(du) - r) / h
         dof = max(len(r) - n, 1)
         s2 = float(r @ r) / dof
         try:
@@ -180,6 +190,51 @@ class EffectCalibrator:
         self.gap_before_ = gap([gap(self._residual([p], {})) for p in parts])
         self.params_, self.stderr_ = effects_at(candidate, x), effects_at(candidate, se)
         return self
+
+    def _scan(self, parts, res, cal: list, free, u_start, off: list) -> tuple[list, list]:
+        """(starts, [(gap, index into starts)] best first) of a fit whose free
+        parameters hold a scanned time (`Param.scan_s`, one per candidate):
+        that time every `scan_s` over the parts' logs' compared span (from a
+        scan before it: a front passing the tow point before the window still
+        moves the drogue inside it), the other free parameters of its effect
+        (amplitudes, off where they add nothing) solved at each time by linear
+        least squares from one run at each one's probe (a small transient's
+        response is linear in its amplitude: one run a time, not a grid),
+        other effects' free parameters at their off values, for the polish to
+        move. The best start's gap is its run's, the others' the linear
+        prediction (they are not polished from)."""
+        off_u = u_start.copy()
+        off_u[free] = off
+        (it,) = [i for i in free if cal[i][2].scan_s]
+        timed = cal[it][0]
+        amps = [i for i in free if cal[i][0] == timed and i != it]
+        t = np.concatenate([evaluate(path_and_segment(part)[0], {}, self.setup).t for part in parts])
+        p_t = cal[it][2]
+        times = np.arange(max(float(np.nanmin(t)) - 2.0 * p_t.scan_s, p_t.search[0]),
+                          min(float(np.nanmax(t)), p_t.search[1]), p_t.scan_s)
+        r0 = res(off_u)
+        starts, predicted = [off_u], [gap(r0)]
+        for tv in times:
+            u = off_u.copy()
+            u[it] = to_unit(p_t, tv)
+            if not amps:
+                starts.append(u)
+                predicted.append(gap(res(u)))
+                continue
+            du = np.array([to_unit(cal[i][2], cal[i][2].probe) - off_u[i] for i in amps])
+            D = np.column_stack([res(np.where(np.arange(len(u)) == i, u + d, u)) - r0 for i, d in zip(amps, du)])
+            c, *_ = np.linalg.lstsq(D, -r0, rcond=None)
+            ua = np.clip(off_u[amps] + c * du, 0.0, 1.0)
+            u[amps] = ua
+            starts.append(u)
+            predicted.append(gap(r0 + D @ ((ua - off_u[amps]) / du)))
+        # the best start by its own run: a prediction that a run does not bear out
+        # gives way to the next
+        known = {0}
+        while (best := int(np.argmin(predicted))) not in known:
+            predicted[best] = gap(res(starts[best]))
+            known.add(best)
+        return starts, sorted((g, i) for i, g in enumerate(predicted))
 
     def set_fitted(self, x, stderr_x) -> "EffectCalibrator":
         """Take parameters fitted elsewhere (the mean of a one-log family's two

@@ -74,7 +74,7 @@ from workbench.diagnosis.select import Selection, acceptance, forward_select, wi
 from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
                                        NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of,
-                                       freeze)
+                                       freeze, one_log_event)
 from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
@@ -285,7 +285,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     excluded = {}
     cands = []
     for e in EFFECTS:
-        why = applicable(e, kind, case, recs[paths[0]])
+        why = applicable(e, kind, case, recs[paths[0]]) or (len(paths) > 1 and one_log_event(e))
         if why:
             excluded[e] = why
         else:

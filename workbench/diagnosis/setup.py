@@ -78,10 +78,26 @@ def applicable(effect: str, kind: str, case: Case, rec: FlightRecord) -> str | N
         return "the reel is not simulated (the baseline prescribes the logged payout or locks it)"
     if effect == "sensor_lag" and kind == "trail":
         return "a steady trail does not move: a time shift of the tracker changes nothing"
+    if effect == "gust" and kind == "trail":
+        return "a steady trail is compared as a static shape: a transient leaves nothing in it"
+    if effect == "gust" and kind == "engagement":
+        # measured: a 40 s engagement at 0.25 s a simulation scans its time for about a
+        # minute a step, beside the 2 min a whole engagement's diagnosis takes
+        return ("its time is scanned on a doublet only: an engagement's own transient is the contact, and a "
+                "scan of its whole span costs a minute a selection step")
     if effect == "tanker_wake" and not (case["hardware"].get("tanker") and rec.info.raw.get("tanker_gross_weight_lb")):
         return "needs the tanker and its gross weight on the test card"
     if effect == "hose_stiffness" and kind == "trail":
         return "a steady trail of a long hose hangs on tension, not bending"
+    return None
+
+
+def one_log_event(effect: str) -> str | None:
+    """Why `effect` is ranked on one log at a time, or None: a parameter of
+    it is a time in the log (`Param.scan_s`, a gust), which another log of
+    the family does not share."""
+    if any(EFFECTS[effect].params[k].scan_s for k in EFFECTS[effect].calibrated):
+        return "a transient of one log, at that log's own time: ranked on a family of one log"
     return None
 
 
