@@ -135,6 +135,12 @@ class Effect:
         """The parameters the diagnosis calibrates, in the registry's order."""
         return [k for k, p in self.params.items() if p.search is not None]
 
+    @property
+    def one_log(self) -> bool:
+        """A transient at a time of one log (a calibrated `Param.scan_s`): no
+        other log shares it, so it is fitted on one log at a time."""
+        return any(self.params[k].scan_s for k in self.calibrated)
+
 
 # ---- helpers ---------------------------------------------------------------------------
 
