@@ -455,9 +455,8 @@ _register(Effect(
            "`start_s` and reaches the drogue a hose length / V later."),
     source="MIL-HDBK-1797 (1997) Sec. 4.9.2, discrete gust model (MIL-F-8785C Sec. 3.7.2).",
     params={
-        # a vertical gust, as MIL-HDBK-1797 sizes it for a pitch response; its length
-        # held at the default (the fitted time and amplitude take most of a shorter
-        # or longer one's signature on a drogue whose own mode outlasts the gust)
+        # a vertical gust (MIL-HDBK-1797's for a pitch response), its length held at the default: time
+        # and amplitude take most of another length's signature on a drogue whose mode outlasts the gust
         "vertical_mps": Param("m/s", 3.0, -20.0, 20.0, "gust amplitude V_m, up", off=0.0, search=(-6.0, 6.0),
                               probe=2.0),
         "lateral_mps": Param("m/s", 0.0, -20.0, 20.0, "gust amplitude V_m, to starboard", off=0.0),
