@@ -405,6 +405,21 @@ def test_the_best_of_several_additions_clears_its_chance_gain_as_often_as_one_cl
     assert SEL.widened(0.01, None, None, None, tried) == 0.01
 
 
+def test_a_scanned_transient_is_held_to_the_best_of_every_time_it_was_tried_at():
+    # a gust scanned at 27 times of a doublet, the best of 7 additions: the largest of a random
+    # motion's 7 x 27 chance gains is what it must clear, whether added or, in backward
+    # elimination, added back; an addition beside it (the gust already there) is not
+    base = Candidate("drogue_lift", ["drogue_lift"], 1)
+    gust = Candidate("drogue_lift+gust", ["drogue_lift", "gust"], 3, looks=27)
+    wind = Candidate("drogue_lift+steady_wind+gust", ["drogue_lift", "steady_wind", "gust"], 5, looks=27)
+    chance = lambda a, b: 0.03   # noqa: E731
+    for before, after in ((base, gust), (None, gust)):
+        assert_allclose(NOISE_FACTOR * SEL.widened(0.01, chance, before, after, 7),
+                        math.hypot(NOISE_FACTOR * 0.01, SEL.chance_quantile(7 * 27) * 0.03), rtol=1e-12)
+    assert_allclose(SEL.widened(0.01, chance, gust, wind, 7), SEL.widened(0.01, chance, None, None, 7), rtol=1e-12)
+    assert SEL.chance_quantile(7 * 27) > SEL.chance_quantile(7) + 0.9
+
+
 def test_a_random_motion_explains_by_chance_only_what_lies_along_a_steps_own_pattern():
     from workbench.diagnosis.rank import within_chance
     from workbench.diagnosis.turbulence import RandomEffect

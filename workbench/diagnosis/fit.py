@@ -51,6 +51,16 @@ def path_and_segment(p: Part) -> tuple[str, int | None]:
     return (str(p[0]), p[1]) if isinstance(p, tuple) else (str(p), None)
 
 
+def scan_times(parts: Sequence[Part], p, setup: Setup) -> np.ndarray:
+    """The times (s) a scanned parameter `p` (`Param.scan_s`) is tried at on
+    `parts`: every `scan_s` over their logs' compared span, from two scans
+    before it (a front passing the tow point then still moves the drogue
+    inside it)."""
+    t = np.concatenate([evaluate(path_and_segment(part)[0], {}, setup).t for part in parts])
+    return np.arange(max(float(np.nanmin(t)) - 2.0 * p.scan_s, p.search[0]), min(float(np.nanmax(t)), p.search[1]),
+                     p.scan_s)
+
+
 @dataclasses.dataclass(frozen=True)
 class Components:
     """One part's residual components under some effects: `r` and `floor`
@@ -194,9 +204,7 @@ class EffectCalibrator:
     def _scan(self, parts, res, cal: list, free, u_start, off: list) -> tuple[list, list]:
         """(starts, [(gap, index into starts)] best first) of a fit whose free
         parameters hold a scanned time (`Param.scan_s`, one per candidate):
-        that time every `scan_s` over the parts' logs' compared span (from a
-        scan before it: a front passing the tow point before the window still
-        moves the drogue inside it), the other free parameters of its effect
+        that time at `scan_times`, the other free parameters of its effect
         (amplitudes, off where they add nothing) solved at each time by linear
         least squares from one run at each one's probe (a small transient's
         response is linear in its amplitude: one run a time, not a grid),
@@ -208,10 +216,8 @@ class EffectCalibrator:
         (it,) = [i for i in free if cal[i][2].scan_s]
         timed = cal[it][0]
         amps = [i for i in free if cal[i][0] == timed and i != it]
-        t = np.concatenate([evaluate(path_and_segment(part)[0], {}, self.setup).t for part in parts])
         p_t = cal[it][2]
-        times = np.arange(max(float(np.nanmin(t)) - 2.0 * p_t.scan_s, p_t.search[0]),
-                          min(float(np.nanmax(t)), p_t.search[1]), p_t.scan_s)
+        times = scan_times(parts, p_t, self.setup)
         r0 = res(off_u)
         starts, predicted = [off_u], [gap(r0)]
         for tv in times:
