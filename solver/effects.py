@@ -136,10 +136,10 @@ class Effect:
         return [k for k, p in self.params.items() if p.search is not None]
 
     @property
-    def one_log(self) -> bool:
-        """A transient at a time of one log (a calibrated `Param.scan_s`): no
-        other log shares it, so it is fitted on one log at a time."""
-        return any(self.params[k].scan_s for k in self.calibrated)
+    def scanned(self) -> list[str]:
+        """Its calibrated times in one log (`Param.scan_s`, a transient's): no
+        other log shares them, so it is fitted on one log at a time."""
+        return [k for k in self.calibrated if self.params[k].scan_s]
 
 
 # ---- helpers ---------------------------------------------------------------------------

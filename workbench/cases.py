@@ -224,7 +224,7 @@ def _check_calibration(p: Path, v: dict) -> None:
     if not (v["calibrate"] and v["calibrate_on"]):
         raise InputError(f"{where} needs both calibrate (effects) and calibrate_on (training logs)")
     # a transient at one log's own time (a gust's, `Param.scan_s`) is no calibration of a fleet of logs
-    known = [e for e, eff in EFFECTS.items() if eff.calibrated and not eff.one_log]
+    known = [e for e, eff in EFFECTS.items() if eff.calibrated and not eff.scanned]
     for e in v["calibrate"]:
         if e not in known:
             why = (EFFECTS[e].not_calibrated or "a transient at one log's own time") if e in EFFECTS \

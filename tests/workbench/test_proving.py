@@ -18,7 +18,7 @@ from flighttest import read_record
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import evaluate, gap
 from workbench.diagnosis.explanation import implausibility
-from workbench.diagnosis.fit import EffectCalibrator
+from workbench.diagnosis.fit import EffectCalibrator, scan_times
 from workbench.diagnosis.rank import plausible_first, probabilities
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import NOISE_FACTOR, Setup, one_log_event
@@ -186,6 +186,8 @@ def test_a_gust_is_found_at_its_time_in_a_log_of_another_form(tmp_path):
     cal = EffectCalibrator(("drogue_lift", "gust"), Setup()).fit([(str(path), 0)], start=lift)
     scan = EFFECTS["gust"].params["start_s"].scan_s
     assert abs(cal.params_["gust"]["start_s"] - g["start_s"]) < scan / 4
+    # every time the scan tried counts as a look (the step's look-elsewhere bar)
+    assert cal.looks_ == len(scan_times([(str(path), 0)], EFFECTS["gust"].params["start_s"], Setup())) > 20
     assert_allclose(cal.params_["gust"]["vertical_mps"], g["vertical_mps"], rtol=1 / 3)
     held = Setup()
     without = evaluate(str(path), lift, held)

@@ -112,7 +112,9 @@ class EffectCalibrator:
     standard errors from the Gauss-Newton covariance in the unit cube, mapped
     by the local slope of the search's scale), `x_` and `stderr_x_` (the same
     as vectors), `gap_train_` (the gap of all training components together),
-    `gap_before_` (the baseline's: the RMS of the training parts' gaps)."""
+    `gap_before_` (the baseline's: the RMS of the training parts' gaps),
+    `looks_` (the times a free scanned time was tried at, `scan_times`; 1
+    where none is free)."""
 
     def __init__(self, effects: Sequence[str], setup: Setup = Setup()):
         self.effects = effects
@@ -140,6 +142,7 @@ class EffectCalibrator:
             return self._residual(parts, effects_at(candidate, [from_unit(p, ui) for p, ui in zip(ps, u)]))
         off = [to_unit(ps[i], self.setup.off(cal[i][0], cal[i][1])) for i in free]
         scanned = any(ps[i].scan_s for i in free)
+        self.looks_ = 1
         if scanned:
             starts, scored = self._scan(parts, res, cal, free, u_start, off)
         else:
@@ -218,6 +221,7 @@ class EffectCalibrator:
         amps = [i for i in free if cal[i][0] == timed and i != it]
         p_t = cal[it][2]
         times = scan_times(parts, p_t, self.setup)
+        self.looks_ = len(times)
         r0 = res(off_u)
         starts, predicted = [off_u], [gap(r0)]
         for tv in times:

@@ -39,7 +39,7 @@ class Candidate:
     why_not_first: Optional[str] = None
     why: Optional[str] = None             # "none" first: why no effect is needed
     wall_s: Optional[float] = None
-    # the times a transient of it (`Effect.one_log`) could be put at (its time scan's
+    # the times a transient of it (`Effect.scanned`) could be put at (its time scan's
     # positions over the log): each a try of the best of which chance may clear a bar
     looks: int = 1
     probability: Optional[float] = None   # from held-out evidence, over the family's ranked candidates

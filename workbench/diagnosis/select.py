@@ -48,7 +48,7 @@ from scipy.special import erfcinv
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.explanation import explain, implausibility
-from workbench.diagnosis.fit import EffectCalibrator, effects_at, ordered, scan_times, splitter_for
+from workbench.diagnosis.fit import EffectCalibrator, effects_at, ordered, splitter_for
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import (LIGHT_TURBULENCE_MPS, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
                                        calibrated_params)
@@ -100,9 +100,8 @@ def _fit_and_score(paths, candidate, setup, warm, n_params, t_start) -> Candidat
     else:
         full = EffectCalibrator(candidate, setup).fit(paths, start=warm and warm["all"])
     per_log = dict(zip((Path(p).stem for p in paths), full.part_gaps(paths)))
-    looks = max([len(scan_times(paths, EFFECTS[e].params[k], setup)) for e in candidate if EFFECTS[e].one_log
-                 for k in EFFECTS[e].calibrated if EFFECTS[e].params[k].scan_s] or [1])
-    return Candidate("+".join(candidate), list(candidate), n_params, params=full.params_, looks=looks,
+    return Candidate("+".join(candidate), list(candidate), n_params, params=full.params_,
+                     looks=max(cal.looks_ for cal in fitted),
                      param_stderr=full.stderr_,
                      gap_after_train=gap([f["gap_train"] for f in folds]),
                      gap_after_heldout=gap([f["gap_heldout"] for f in folds]),
@@ -159,13 +158,13 @@ def widened(floor: float, chance: Callable | None, before: Candidate | None, aft
     `turbulence.RandomEffect.chance_offset`) at `chance_quantile(tried)`
     standard deviations over `NOISE_FACTOR`'s, in quadrature; so that
     `NOISE_FACTOR` x it is hypot(NOISE_FACTOR x floor, z x chance). A change
-    that adds a transient at a scanned time (`Effect.one_log`) was tried at
+    that adds a transient at a scanned time (`Effect.scanned`) was tried at
     each of its `Candidate.looks` times too: the largest burst of a random
     motion is the one a scan finds."""
     if chance is None:
         return floor
     added = set(after.effects if after else ()) - set(before.effects if before else ())
-    if after is not None and any(EFFECTS[e].one_log for e in added):
+    if after is not None and any(EFFECTS[e].scanned for e in added):
         tried *= after.looks
     return math.hypot(floor, chance(before, after) * chance_quantile(tried) / NOISE_FACTOR)
 

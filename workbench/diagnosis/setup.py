@@ -94,9 +94,9 @@ def applicable(effect: str, kind: str, case: Case, rec: FlightRecord) -> str | N
 
 def one_log_event(effect: str) -> str | None:
     """Why `effect` is ranked on one log at a time, or None: a parameter of
-    it is a time in the log (`Effect.one_log`, a gust), which another log of
+    it is a time in the log (`Effect.scanned`, a gust), which another log of
     the family does not share."""
-    if EFFECTS[effect].one_log:
+    if EFFECTS[effect].scanned:
         return "a transient of one log, at that log's own time: ranked on a family of one log"
     return None
 
