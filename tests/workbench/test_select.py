@@ -652,3 +652,21 @@ def test_within_the_noise_a_step_takes_the_addition_naming_fewest_events():
     # the same events: fewer parameters, then the smaller gap
     lift = _fit({"drogue_drag": {"scale": 1.5}, "drogue_lift": {"scale": 0.5}}, 0.0159)
     assert SEL.choose([wind, lift], floor) is lift
+
+
+def test_a_simpler_addition_that_explains_only_the_noise_does_not_stop_a_step_another_earns():
+    # the measured step of a proving-ground gust doublet: from 0.0329 m, a tracker
+    # lag (one parameter) to 0.0314 m explains sqrt(0.0329^2 - 0.0314^2) = 0.0098 m,
+    # under 2 x the 0.0079 m floor; a gust (two) to 0.0280 m explains 0.0173 m. The two
+    # gaps are within the floor of each other, so `choose` alone prefers the lag
+    floor, current = 0.0079, 0.0329
+    lag = _fit({"drogue_lift": {"scale": 1.05}, "sensor_lag": {"delay_s": -0.017}}, 0.0314)
+    gust = _fit({"drogue_lift": {"scale": 1.05}, "gust": {"vertical_mps": 1.1, "start_s": 14.9}}, 0.0280)
+    before = _fit({"drogue_lift": {"scale": 1.05}}, current)
+    assert SEL.choose([lag, gust], floor) is lag
+    assert SEL.acceptance(current - lag.gap_after_heldout, 1, current, floor)
+    assert SEL._take([lag, gust], before, current, floor) == (gust, None)
+    # none earns its place: the step is refused on the one `choose` prefers, with its reason
+    weak = _fit(gust.params, 0.0312)
+    took, why = SEL._take([lag, weak], before, current, floor)
+    assert took is lag and "noise floor" in why

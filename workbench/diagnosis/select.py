@@ -12,8 +12,9 @@ Step k fits every screened effect not yet selected (nor failed to simulate)
 together with the k - 1 selected ones (`score_candidate`: per fold and on all logs, warm-started at the
 selected set's fitted values, `fit.EffectCalibrator.fit(parts, start=...)`)
 and scores it held out on the same folds. The step takes the best plausible
-addition (`_take`, `choose`): among additions within the noise floor of
-each other, the one naming fewest events, then with fewest parameters; and a
+addition (`_take`, `choose`) of those that earn their place (all, when
+none does): among additions within the noise floor of each other, the one
+naming fewest events, then with fewest parameters; and a
 plausible addition before an implausible one (on a search bound) of similar
 gap. It is accepted when
 what it explains of the held-out gap beats the noise, sqrt(current^2 -
@@ -188,19 +189,24 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
     effect) and a plausible addition's held-out gap is similar, within the
     noise floor or one parameter's worth of the gap left (`PARAM_PENALTY` x
     `current`), the plausible one first, the implausible one only if the
-    plausible one is refused and it is not. With `chance` (a function of the
-    set before and after: what a real random motion explains by chance along
-    the change's pattern), each addition is held to the noise floor
-    `widened` by it (the best of all tried), and one within it is set aside before the best is
-    chosen: a random motion's low frequencies may favour a steady effect
+    plausible one is refused and it is not. An addition the rule refuses is
+    set aside before the best is chosen, where another earns its place: a
+    simpler addition within the noise of the best that explains no more
+    than the noise itself does not stop the step (measured on a proving-ground
+    doublet: a tracker lag cutting the held-out gap by 0.0015 m stood in
+    front of the true gust, cutting it by 0.0049 m and explaining 2.2 x the
+    noise floor, and the selection ended on a drogue lift).
+    With `chance` (a function of the set before and after: what a real
+    random motion explains by chance along the change's pattern), each
+    addition is held to the noise floor `widened` by it (the best of all
+    tried): a random motion's low frequencies may favour a steady effect
     that explains by chance more than another explains for real."""
     tried = len(ok)
 
     def verdict(c):
         n_new = c.n_params - (chosen.n_params if chosen else 0)
         return acceptance(current - c.gap_after_heldout, n_new, current, widened(floor, chance, chosen, c, tried))
-    if chance is not None:
-        ok = [c for c in ok if verdict(c) is None] or ok
+    ok = [c for c in ok if verdict(c) is None] or ok
     best = choose(ok, floor, prior)
     plausible = [c for c in ok if not implausibility(c)]
     tries = [best]
