@@ -4,6 +4,7 @@ it cannot)."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import re
 
@@ -91,12 +92,14 @@ def test_overlay_series_is_thinned_and_the_simulation_is_the_log_minus_the_resid
     assert_allclose(dz[outside], 0.0, atol=2e-4)
 
 
-def _with_new_where_maps(js: dict) -> dict:
+def _with_new_where_maps(js: dict, before: dict | None = None) -> dict:
     """The committed diagnosis with its doublet family's where-maps replaced by
-    the hand-built one's (as a new diagnose writes them)."""
+    the hand-built one's (as a new diagnose writes them), or the baseline's by
+    `before`."""
     js = copy.deepcopy(js)
-    ob, R = _doublet()
-    before = json.loads(json.dumps(where_map(ob, R)))
+    if before is None:
+        before = where_map(*_doublet())
+    before = json.loads(json.dumps(before))
     ob, R = _doublet(0.0)
     after = json.loads(json.dumps(where_map(ob, R)))
     fam = next(k for k in js["families"] if k.startswith("pitch_doublet"))
@@ -130,3 +133,20 @@ def test_report_renders_an_old_diagnosis_json_with_a_note_and_a_new_one_with_its
     assert len(srcs) == 3 + 2
     assert "PD-TEST: the gap by channel and test phase and along the hose by band, before and after" in html
     assert "the drogue&#x27;s z (its largest gap)" in html or "the drogue's z (its largest gap)" in html
+
+
+def test_report_draws_a_split_whose_every_component_was_left_out_as_a_blank_cell():
+    """The reproducibility weights leave a component out with its floor
+    (`evaluate.evaluate`): a channel all of whose components are left out has
+    gap 0 over floor 0, and a quiet phase too short for a band has no floor.
+    Both are blank cells, not a division by zero (measured on a
+    proving-ground doublet's tracker-phase signature)."""
+    ob, R = _doublet()
+    out = R.channel == "drogue y"
+    R = dataclasses.replace(R, r=np.where(out, 0.0, R.r), floor=np.where(out, 0.0, R.floor))
+    w = where_map(ob, R)
+    assert w["by_channel"]["drogue y"] == {"gap_m": 0.0, "floor_m": 0.0, "real": False}
+    w["by_band"]["drogue x"]["fundamental"].update(residual_m=None, floor_m=None)
+    js = json.loads((ROOT / "reports" / "diagnose" / "diagnosis.json").read_text())
+    html = diagnosis_html(_with_new_where_maps(js, w))
+    assert "where the baseline&#x27;s gap lies" in html or "where the baseline's gap lies" in html

@@ -138,13 +138,29 @@ def _remainder_blocks(d: dict) -> list:
                   [24, 16, 12, 12, 30], title="What the best explanation leaves")]
 
 
+def _over(g, f) -> float:
+    """Gap `g` over noise floor `f`; NaN (a blank cell) where either is
+    missing or the floor is zero: a split of the residual whose every
+    component the model's reproducibility weights left out, floor and all
+    (`evaluate.evaluate`; measured: the tracker-phase signature of a
+    proving-ground doublet, 486046539, where the division had ended the
+    report)."""
+    return math.nan if g is None or not f else g / f
+
+
+def _size(v) -> float:
+    """|v|; NaN where the band was not measured (a log too short for it)."""
+    return math.nan if v is None else abs(v)
+
+
 def _heat(ax, values, rows, cols, title, annotate, vmax=None):
     """A heat map of gap / noise floor (log colour scale up to `vmax`, default
-    the largest value), each cell annotated."""
+    the largest value), each cell annotated; NaN cells blank."""
     from matplotlib.colors import LogNorm
     v = np.array(values, float)
+    top = float(np.nanmax(v)) if np.isfinite(v).any() else 0.0
     im = ax.imshow(np.clip(v, 0.1, None), aspect="auto", cmap="viridis",
-                   norm=LogNorm(vmin=0.5, vmax=vmax or max(2.0, np.nanmax(v))))
+                   norm=LogNorm(vmin=0.5, vmax=vmax or max(2.0, top)))
     ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right", fontsize=7)
     ax.set_yticks(range(len(rows)), rows, fontsize=7)
     ax.set_title(title, fontsize=9)
@@ -165,22 +181,24 @@ def _where_figure(name: str, d: dict):
     maps = [d["gap"][k] for k in logs]
     panels = []
     chans = list(maps[0]["by_channel"])
-    panels.append(("by channel", chans, [[m["by_channel"][c]["gap_m"] / m["by_channel"][c]["floor_m"] for c in chans]
-                                         for m in maps], [[m["by_channel"][c]["gap_m"] for c in chans] for m in maps]))
+    panels.append(("by channel", chans,
+                   [[_over(m["by_channel"][c]["gap_m"], m["by_channel"][c]["floor_m"]) for c in chans] for m in maps],
+                   [[m["by_channel"][c]["gap_m"] for c in chans] for m in maps]))
     phases = [p["phase"] for p in maps[0]["by_phase"]]
     if len(phases) > 1:
-        panels.append(("by phase", phases, [[p["gap_m"] / p["floor_m"] for p in m["by_phase"]] for m in maps],
+        panels.append(("by phase", phases, [[_over(p["gap_m"], p["floor_m"]) for p in m["by_phase"]] for m in maps],
                        [[p["gap_m"] for p in m["by_phase"]] for m in maps]))
     if maps[0].get("by_station"):
         st = [f"{r['station_from_m']:.0f}-{r['station_to_m']:.0f} m" for r in maps[0]["by_station"]]
         panels.append(("by station along the hose", st,
-                       [[r["gap_m"] / r["floor_m"] for r in m["by_station"]] for m in maps],
+                       [[_over(r["gap_m"], r["floor_m"]) for r in m["by_station"]] for m in maps],
                        [[r["gap_m"] for r in m["by_station"]] for m in maps]))
     bchan = list(maps[0]["by_band"])
     bands = list(maps[0]["by_band"][bchan[0]])
-    band_ratio = [[np.mean([abs(m["by_band"][c][b]["residual_m"]) / m["by_band"][c][b]["floor_m"] for m in maps])
+    band_ratio = [[np.mean([_over(_size(m["by_band"][c][b]["residual_m"]), m["by_band"][c][b]["floor_m"])
+                            for m in maps])
                    for b in bands] for c in bchan]
-    band_gap = [[np.mean([abs(m["by_band"][c][b]["residual_m"]) for m in maps]) for b in bands] for c in bchan]
+    band_gap = [[np.mean([_size(m["by_band"][c][b]["residual_m"]) for m in maps]) for b in bands] for c in bchan]
     fig = MplFigure(figsize=(11, 2.3 + 0.35 * len(logs) + 1.2 * ((len(panels) + 1) > 2)))
     axes = fig.subplots(1, len(panels) + 1, gridspec_kw={"width_ratios": [len(p[1]) + 1 for p in panels]
                                                          + [len(bands) + 1]})
@@ -207,9 +225,9 @@ def _cross_figure(name: str, log: str, before: dict, after: dict | None, effect:
     tables = [t for t in tables if before.get(t[1])]
     states = [("baseline", before)] + ([(f"with {effect}", after)] if after else [])
     panels = [(f"{title}, {state}", m[key], flip) for title, key, flip in tables for state, m in states]
-    ratios = [np.array([[np.nan if g is None or not f else g / f for g, f in zip(gr, fr)]
+    ratios = [np.array([[_over(g, f) for g, f in zip(gr, fr)]
                         for gr, fr in zip(p["gap_m"], p["floor_m"])], float) for _, p, _ in panels]
-    vmax = max(2.0, max(np.nanmax(r) for r in ratios))
+    vmax = max([2.0] + [float(np.nanmax(r)) for r in ratios if np.isfinite(r).any()])
     fig = MplFigure(figsize=(11, 3.4 * len(tables)))
     # room between the rows for the upper maps' column labels
     axes = fig.subplots(len(tables), len(states), squeeze=False, gridspec_kw={"hspace": 0.7}).ravel()
