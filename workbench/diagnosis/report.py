@@ -153,14 +153,20 @@ def _size(v) -> float:
     return math.nan if v is None else abs(v)
 
 
+def _scale_top(*ratios) -> float:
+    """The top of a heat map's colour scale: the largest finite ratio of
+    `ratios` (arrays), at least 2 (NaN cells are blank, an all-blank map
+    keeps 2)."""
+    return max([2.0] + [float(np.nanmax(r)) for r in ratios if np.isfinite(r).any()])
+
+
 def _heat(ax, values, rows, cols, title, annotate, vmax=None):
     """A heat map of gap / noise floor (log colour scale up to `vmax`, default
-    the largest value), each cell annotated; NaN cells blank."""
+    `_scale_top` of the values), each cell annotated; NaN cells blank."""
     from matplotlib.colors import LogNorm
     v = np.array(values, float)
-    top = float(np.nanmax(v)) if np.isfinite(v).any() else 0.0
     im = ax.imshow(np.clip(v, 0.1, None), aspect="auto", cmap="viridis",
-                   norm=LogNorm(vmin=0.5, vmax=vmax or max(2.0, top)))
+                   norm=LogNorm(vmin=0.5, vmax=vmax or _scale_top(v)))
     ax.set_xticks(range(len(cols)), cols, rotation=30, ha="right", fontsize=7)
     ax.set_yticks(range(len(rows)), rows, fontsize=7)
     ax.set_title(title, fontsize=9)
@@ -212,7 +218,9 @@ def _where_figure(name: str, d: dict):
     cb = fig.colorbar(im, ax=list(axes), orientation="horizontal", fraction=0.06, pad=0.35, aspect=60)
     cb.set_label("gap / noise floor (-); cells: gap (m)", fontsize=8)
     return Figure(figure_png(fig), f"{esc(name)}: where the baseline's gap lies. Colour: gap over the log's own "
-                                   f"noise floor (below {NOISE_FACTOR:g}: noise); numbers: the gap in metres.",
+                                   f"noise floor (below {NOISE_FACTOR:g}: noise); numbers: the gap in metres; "
+                                   "blank: nothing compared there (components the model does not reproduce "
+                                   "are left out).",
                   f"diagnosis-{name.replace('/', '-')}-where")
 
 
@@ -227,7 +235,7 @@ def _cross_figure(name: str, log: str, before: dict, after: dict | None, effect:
     panels = [(f"{title}, {state}", m[key], flip) for title, key, flip in tables for state, m in states]
     ratios = [np.array([[_over(g, f) for g, f in zip(gr, fr)]
                         for gr, fr in zip(p["gap_m"], p["floor_m"])], float) for _, p, _ in panels]
-    vmax = max([2.0] + [float(np.nanmax(r)) for r in ratios if np.isfinite(r).any()])
+    vmax = _scale_top(*ratios)
     fig = MplFigure(figsize=(11, 3.4 * len(tables)))
     # room between the rows for the upper maps' column labels
     axes = fig.subplots(len(tables), len(states), squeeze=False, gridspec_kw={"hspace": 0.7}).ravel()
@@ -249,7 +257,7 @@ def _cross_figure(name: str, log: str, before: dict, after: dict | None, effect:
                   + (" and along the hose by band" if len(tables) > 1 else "")
                   + (f", before and after {esc(effect)}" if after else " (the baseline is ranked first)")
                   + f". Colour: the gap over the log's own noise floor (below {NOISE_FACTOR:g}: noise); "
-                    "a blank cell has no component.",
+                    "a blank cell has no component, or only ones the model does not reproduce (left out).",
                   f"diagnosis-{name.replace('/', '-')}-{log}-cross")
 
 
