@@ -215,6 +215,8 @@ def _where_figure(name: str, d: dict):
           [[f"{g:.2f}" for g in row] for row in band_gap])
     for ax in axes[1:len(panels)]:
         ax.set_yticklabels([])
+    # the band panel's rows are channels, not logs: labelled on its right, clear of the panel before it
+    axes[-1].yaxis.tick_right()
     cb = fig.colorbar(im, ax=list(axes), orientation="horizontal", fraction=0.06, pad=0.35, aspect=60)
     cb.set_label("gap / noise floor (-); cells: gap (m)", fontsize=8)
     return Figure(figure_png(fig), f"{esc(name)}: where the baseline's gap lies. Colour: gap over the log's own "
