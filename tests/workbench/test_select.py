@@ -82,6 +82,35 @@ def test_a_warm_start_grids_only_the_new_effect_and_polishes_both(calls):
             assert abs(cal.params_[e][k] - v) <= 3 * cal.stderr_[e][k], (e, k)
 
 
+@pytest.mark.parametrize("decoy_mps", [0.0, 0.7])
+def test_a_scanned_time_is_polished_in_a_second_valley_where_the_best_scan_point_misleads(monkeypatch, decoy_mps):
+    # a gust-like pulse (Gaussian, 0.3 s wide) half way between two scan times (1 s apart),
+    # alone, or with a smaller look-alike right on a scan time: at the scan points the
+    # look-alike's valley is the lower (it is removed whole, the true pulse at half overlap
+    # by a quarter), but polished, the true pulse's valley goes far deeper; the fit must end
+    # there, its amplitude polished with its time (the polish's step test once stopped it as
+    # the time landed, the amplitude left at the scan neighbour's half)
+    t = np.linspace(0.0, 20.0, 2001)
+    width, true_s, true_mps, decoy_s = 0.3, 5.5, 1.0, 12.0
+
+    def pulse(t0, a):
+        return a * np.exp(-0.5 * ((t - t0) / width) ** 2)
+
+    def evaluate(path, effects, setup):
+        g = effects.get("gust", {})
+        r = pulse(true_s, true_mps) + pulse(decoy_s, decoy_mps) - pulse(g.get("start_s", 2.0),
+                                                                        g.get("vertical_mps", 0.0))
+        return types.SimpleNamespace(r=r, t=t, segment=np.zeros(t.size, int), floor=np.full(t.size, 1e-3),
+                                     channel=np.full(t.size, "drogue z"))
+    monkeypatch.setattr(F, "evaluate", evaluate)
+    cal = EffectCalibrator(("gust",)).fit(["log"])
+    # no noise: the answer to the polish's tolerance, POLISH_TOL of a share of what is left
+    assert_allclose(cal.params_["gust"]["start_s"], true_s, atol=F.POLISH_TOL)
+    assert_allclose(cal.params_["gust"]["vertical_mps"], true_mps, rtol=F.POLISH_TOL)
+    # only the look-alike is left
+    assert_allclose(cal.gap_train_, F.gap(pulse(decoy_s, decoy_mps)), atol=F.POLISH_TOL * F.gap(pulse(true_s, 1.0)))
+
+
 # ---------------------------------------------------------------- acceptance rule
 
 def test_an_addition_must_beat_the_noise_and_the_parameter_penalty():

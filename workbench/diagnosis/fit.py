@@ -7,10 +7,11 @@ grid in the unit cube of the search ranges (10 points for one parameter,
 5 x 5 for two, 4 per axis beyond, plus the off point: the setup's prior
 value where it has one, `Setup.off`; where a free parameter is a time in
 the log, `Param.scan_s`, that time every `scan_s` over the logs' span
-instead, its effect's amplitudes solved linearly at each, `_scan`), then bounded least
-squares from the best grid point, and for two or more parameters from the
-runner-up too. `fit(parts, start={effect: {param: value}})` warm-starts it
-(forward selection adding an effect to a fitted set): the parameters given
+instead, its effect's amplitudes solved linearly at each, `_scan`), then
+bounded least squares from the best grid point, and for two or more
+parameters from the runner-up too (for a scanned time, from the best start of
+another valley, `_polish_from`). `fit(parts, start={effect: {param: value}})`
+warm-starts it (forward selection adding an effect to a fitted set): the parameters given
 stay at their start values on the grid, which spans only the others, and the
 least squares then polishes all of them together. `score(parts)` is the
 held-out gap at the fitted parameters, `held_out(parts)` its components.
@@ -44,6 +45,26 @@ Part = Union[str, tuple]     # a log path, or (path, segment 0 | 1)
 # proving-ground doublet, 102 s -> 67 s, the ranking and every fitted value
 # the same to three figures.
 POLISH_TOL = 1e-3
+# A scanned time's second polish starts in another valley: more than this many
+# scan steps from the best start's time.
+VALLEY_SCANS = 2
+
+
+def _polish_from(scored: list, starts: list, ps: list, free, scanned: bool) -> list[int]:
+    """The starts (indices) the least squares polishes from, `scored` best
+    first: the best; with a scanned time also the best start of another
+    valley (its time more than `VALLEY_SCANS` scans away; the scan's off start,
+    index 0, is no valley); else, with two or more free parameters, the
+    runner-up."""
+    best = scored[0][1]
+    if not scanned:
+        return [i for _, i in scored[:1 if len(free) <= 1 else 2]]
+    (it,) = [i for i in free if ps[i].scan_s]
+    p = ps[it]
+    t_best = from_unit(p, starts[best][it])
+    far = [i for _, i in scored[1:] if i != 0 and best != 0
+           and abs(from_unit(p, starts[i][it]) - t_best) > VALLEY_SCANS * p.scan_s]
+    return [best] + far[:1]
 
 
 def path_and_segment(p: Part) -> tuple[str, int | None]:
@@ -161,16 +182,25 @@ class EffectCalibrator:
                 starts.append(u0)
             scored = sorted((gap(res(u)), i) for i, u in enumerate(starts))
         # refine from the best grid point, and for two or more free parameters from
-        # the runner-up too (a valley across the grid), but for a scanned time, whose
-        # runner-up is the best's neighbour in the same valley; starts are nudged off the
-        # bounds, where a projected gradient can vanish at a corner that is not a minimum.
-        # A scanned time steps a quarter of its scan, not a share of its search range.
+        # the runner-up too (a valley across the grid); for a scanned time from the best
+        # start of another valley, more than `VALLEY_SCANS` scans from the best (the
+        # runner-up is the best's neighbour in the same valley): which of two valleys a
+        # run finds best flips with the log's last digits (measured on a proving-ground
+        # gust doublet: a ninth-digit change of the baseline moved the gust's fit from
+        # one to the other), and only the polish tells them apart. Starts are nudged off
+        # the bounds, where a projected gradient can vanish at a corner that is not a
+        # minimum. A scanned time steps a quarter of its scan, not a share of its range.
         step = np.array([p.scan_s / 4.0 / (p.search[1] - p.search[0]) if p.scan_s else 0.02 for p in ps])
+        # scipy's step test is on the whole unit vector, where a scanned time's range (an
+        # hour) makes a move of half a scan a step of 1e-4: it would stop the polish as the
+        # time lands, the amplitudes left where the scan's neighbour put them. So its
+        # tolerance is POLISH_TOL of the finest parameter's step, not of the cube.
+        xtol = POLISH_TOL * float(np.min(step)) / 0.02
         best_gap, u, sol = scored[0][0], starts[scored[0][1]], None
-        for _, i in scored[:1 if len(free) <= 1 or scanned else 2]:
+        for i in _polish_from(scored, starts, ps, free, scanned):
             s = least_squares(res, np.clip(starts[i], step, 1.0 - step), bounds=(np.zeros(n), np.ones(n)),
                               diff_step=step, max_nfev=8 * max(len(free), 1) + 4, x_scale=5.0 * step,
-                              ftol=POLISH_TOL, xtol=POLISH_TOL, gtol=POLISH_TOL)
+                              ftol=POLISH_TOL, xtol=xtol, gtol=POLISH_TOL)
             if sol is None or gap(s.fun) < gap(sol.fun):
                 sol = s
         if gap(sol.fun) <= best_gap:
