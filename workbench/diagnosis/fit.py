@@ -45,6 +45,9 @@ Part = Union[str, tuple]     # a log path, or (path, segment 0 | 1)
 # proving-ground doublet, 102 s -> 67 s, the ranking and every fitted value
 # the same to three figures.
 POLISH_TOL = 1e-3
+# The polish's finite-difference step in the unit cube of a parameter's search
+# range (a scanned time steps a quarter of its scan instead).
+UNIT_STEP = 0.02
 # A scanned time's second polish starts in another valley: more than this many
 # scan steps from the best start's time.
 VALLEY_SCANS = 2
@@ -56,14 +59,15 @@ def _polish_from(scored: list, starts: list, ps: list, free, scanned: bool) -> l
     valley (its time more than `VALLEY_SCANS` scans away; the scan's off start,
     index 0, is no valley); else, with two or more free parameters, the
     runner-up."""
-    best = scored[0][1]
     if not scanned:
         return [i for _, i in scored[:1 if len(free) <= 1 else 2]]
+    best = scored[0][1]
+    if best == 0:
+        return [best]
     (it,) = [i for i in free if ps[i].scan_s]
     p = ps[it]
     t_best = from_unit(p, starts[best][it])
-    far = [i for _, i in scored[1:] if i != 0 and best != 0
-           and abs(from_unit(p, starts[i][it]) - t_best) > VALLEY_SCANS * p.scan_s]
+    far = [i for _, i in scored[1:] if i != 0 and abs(from_unit(p, starts[i][it]) - t_best) > VALLEY_SCANS * p.scan_s]
     return [best] + far[:1]
 
 
@@ -190,12 +194,12 @@ class EffectCalibrator:
         # one to the other), and only the polish tells them apart. Starts are nudged off
         # the bounds, where a projected gradient can vanish at a corner that is not a
         # minimum. A scanned time steps a quarter of its scan, not a share of its range.
-        step = np.array([p.scan_s / 4.0 / (p.search[1] - p.search[0]) if p.scan_s else 0.02 for p in ps])
+        step = np.array([p.scan_s / 4.0 / (p.search[1] - p.search[0]) if p.scan_s else UNIT_STEP for p in ps])
         # scipy's step test is on the whole unit vector, where a scanned time's range (an
         # hour) makes a move of half a scan a step of 1e-4: it would stop the polish as the
         # time lands, the amplitudes left where the scan's neighbour put them. So its
         # tolerance is POLISH_TOL of the finest parameter's step, not of the cube.
-        xtol = POLISH_TOL * float(np.min(step)) / 0.02
+        xtol = POLISH_TOL * float(np.min(step)) / UNIT_STEP
         best_gap, u, sol = scored[0][0], starts[scored[0][1]], None
         for i in _polish_from(scored, starts, ps, free, scanned):
             s = least_squares(res, np.clip(starts[i], step, 1.0 - step), bounds=(np.zeros(n), np.ones(n)),
