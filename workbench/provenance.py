@@ -3,6 +3,7 @@ hashes, dependency versions, one JSON-safe converter, and a cache of parsed
 input files that re-reads a file once it changes."""
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import subprocess
@@ -17,8 +18,13 @@ ROOT = Path(__file__).resolve().parent.parent
 DEPENDENCIES = ("numpy", "scipy", "numba", "pandas")
 
 
+@functools.lru_cache(maxsize=1)
 def code_version() -> str:
-    """`git describe --always --dirty` of the source tree, or "unknown" outside git."""
+    """`git describe --always --dirty` of the source tree, or "unknown" outside
+    git: as this process first asked, which the `workbench` command does before
+    its verb runs. A run's own writes are tracked files too (`--update-committed`
+    rewrites diagnosis.json before the fleet file records the code): asked
+    again after them, git would call the code that made them dirty."""
     try:
         rev = subprocess.run(["git", "-C", str(ROOT), "describe", "--always", "--dirty"],
                              capture_output=True, text=True, timeout=5)

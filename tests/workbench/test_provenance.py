@@ -33,3 +33,20 @@ def test_source_hashes_name_files_by_repository_path(tmp_path):
 def test_dependency_versions_are_the_installed_ones():
     v = dependency_versions(("numpy", "no-such-distribution-xyz"))
     assert v == {"numpy": np.__version__, "no-such-distribution-xyz": None}
+
+
+def test_the_code_version_is_the_tree_the_command_started_on(monkeypatch):
+    # a verb's own writes (diagnose --update-committed rewrites tracked result
+    # files before the fleet file records the code) must not mark its code dirty
+    from click.testing import CliRunner
+    from workbench.cli.main import cli
+    answers = iter(["f8e5b93", "f8e5b93-dirty"])
+    monkeypatch.setattr(prov.subprocess, "run", lambda *a, **k: type("R", (), {"stdout": next(answers)})())
+    prov.code_version.cache_clear()
+    try:
+        # the group takes it before the verb runs (here the verb only prints its help)
+        assert CliRunner().invoke(cli, ["logs", "--help"]).exit_code == 0
+        assert prov.code_version.cache_info().currsize == 1
+        assert prov.code_version() == "f8e5b93"      # asked again after a write: the start's answer
+    finally:
+        prov.code_version.cache_clear()

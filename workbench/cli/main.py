@@ -17,6 +17,7 @@ from workbench.cli.run import run
 from workbench.cli.validate import validate
 from workbench.errors import (BAD_INPUT, EXIT_BAD_INPUT, EXIT_GATE_FAILED, EXIT_INTERNAL, EXIT_INTERRUPTED,
                               EXIT_NUMERICAL, NUMERICAL)
+from workbench.provenance import code_version
 
 HELP = f"""Hose-and-drogue aerial refueling simulation and validation workbench.
 
@@ -79,7 +80,8 @@ class GuardedGroup(click.Group):
 @click.group(cls=GuardedGroup, help=HELP, context_settings=dict(help_option_names=["-h", "--help"]))
 @click.version_option(package_name="workbench")
 def cli() -> None:
-    pass
+    # the code version results record, taken before the verb writes any of them
+    code_version()
 
 
 for _command in (run, compare, validate, logs, properties, diagnose):
