@@ -14,6 +14,7 @@ from numpy.testing import assert_allclose
 from scipy.signal import lfilter
 
 from flighttest.residual import rms
+from workbench.diagnosis.evaluate import record
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import NOISE_FACTOR, Setup
 from workbench.diagnosis.turbulence import (MAD_REL_SD, N_SEEDS, SIGMA_REF_MPS, RandomEffect, SigmaEstimate,
@@ -122,9 +123,22 @@ def test_the_model_s_drogue_response_is_linear_in_sigma(log):
     y0 = _at_fixes(_run(path, {}, setup), t)
     r = {s: _at_fixes(_run(path, {"turbulence": {"sigma_mps": s, "length_scale_m": 533.4, "seed": 5}}, setup), t) - y0
          for s in (0.25, 0.5, 1.0)}
-    departure = {s: rms(r[s] - 2.0 * r[s / 2]) / rms(r[s]) for s in (0.5, 1.0)}
-    # quadratic drag departs from linear by about sigma / U: a few per cent at
-    # 1 m/s (the doublet's large motion included); 5 % would bias sigma^2 by 10 %
+    # the estimate scales the ensemble's band power by sigma^2: at 1 m/s against
+    # 0.5 m/s the power must keep that ratio within 10 % (sigma^2's bias), the
+    # probe-held drogue of an engagement included
+    power = {s: float(np.mean(r[s] ** 2)) for s in r}
+    assert abs(power[1.0] / (4.0 * power[0.5]) - 1.0) < 0.10
+    # the drogue in the air: quadratic drag departs from linear by about sigma / U,
+    # a few per cent at 1 m/s (the doublet's large motion included); 5 % would bias
+    # sigma^2 by 10 %. Held on the probe (an engagement's contact to disconnect)
+    # its motion is the coupling's give under the hose's load, which the hinge
+    # reaching its stop makes non-smooth: there it is 1 % of the power, a response
+    # the power check above holds.
+    free = np.ones(len(t), bool)
+    if log.startswith("EN-"):
+        on, off = record(path).contact_events()
+        free = (t < on) | (t > (off if off is not None else np.inf))
+    departure = {s: rms(r[s][free] - 2.0 * r[s / 2][free]) / rms(r[s][free]) for s in (0.5, 1.0)}
     assert departure[1.0] < 0.05
     # ... and the departure is second order: it halves with sigma (0.5; 0.6 leaves the third order room)
     assert departure[0.5] < 0.6 * departure[1.0]

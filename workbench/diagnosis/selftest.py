@@ -146,7 +146,7 @@ def generate(kind: str, effect: str, seed: int, out_dir: Path) -> tuple[Path, di
         pr[["x_m", "y_m", "z_m"]] = pr[["x_m", "y_m", "z_m"]].to_numpy(float) + shift
         topics["/receiver/probe"] = pr
         inp = make_record(raw, topics, like.start_time_ns)
-    # an engagement's template holds the drogue rigidly on the (shifted) probe from contact
+    # an engagement's template holds the drogue on the (shifted) probe from contact
     res = simulate_case(_case(kind, raw, {**phys, **turb}), inp, until=T,
                         record_dt=defaults["selftest.record_dt_s"]).result
 

@@ -17,8 +17,9 @@ diagnosis calibrates:
   data sheet's and its centre of mass anywhere between 35 and 65 %
   of the way to it (the model: half way), with a little hinge damping (the
   model: none);
-* engagements: the probe holds the drogue through a compliant coupling
-  (`PROBE_COUPLING_N_M`, damping ratio `PROBE_COUPLING_ZETA`), not rigidly;
+* engagements: the probe holds the drogue through a coupling of its own
+  compliance (`PROBE_COUPLING_N_M`, damping ratio `PROBE_COUPLING_ZETA`), 2 to
+  10 times softer than the diagnosis's assumed one;
 * the tanker wake, when on, of another shape: its core radius, offsets and
   fuselage drag area drawn (the diagnosis fits its strength at the default
   shape).
