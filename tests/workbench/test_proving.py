@@ -157,6 +157,22 @@ def test_every_library_effect_is_drawn_at_least_three_times_in_the_single_family
     assert all(2 <= len(set(effs)) <= 3 and set(effs) <= set(KIND_EFFECTS[k]) for k, effs, _ in multi)
 
 
+def test_hardware_scattered_beyond_its_data_sheet_is_in_the_true_set():
+    from workbench.proving.physics import draw_form
+    within = {"drogue_cl_factor": 1.24, "drogue_cd_factor": 0.93, "EI_factor": 1.2, "EA_factor": 0.8}
+    assert campaign.off_sheet(within) == set()
+    # the registry's tolerances: C_L 25 %, C_D 10 %, EI 30 %
+    assert campaign.off_sheet({**within, "drogue_cl_factor": 0.74}) == {"drogue_lift"}
+    assert campaign.off_sheet({**within, "drogue_cd_factor": 1.11, "EI_factor": 0.65}) == {"drogue_drag",
+                                                                                          "hose_stiffness"}
+    # drawn at the clip of a spread equal to its tolerance (C_D: 5 % at 2 sigma) is at it, not beyond
+    assert campaign.off_sheet({**within, "drogue_cd_factor": 1.0 + 2 * 0.05}) == set()
+    # every scattered factor the generator draws is one the scoring reads, or is no calibrated parameter
+    form = draw_form(np.random.default_rng(3), "trail")
+    assert set(campaign.SCATTER) <= set(form)
+    assert all(EFFECTS[e].params[p].tolerance for e, p in campaign.SCATTER.values())
+
+
 @pytest.mark.parametrize("kind,effects", [("trail", ["tanker_wake"]), ("pitch_doublet", ["sensor_lag", "gust"])])
 def test_a_generated_log_keeps_the_log_contract(tmp_path, kind, effects):
     path, truth = generate(kind, effects, 11, tmp_path)
