@@ -18,9 +18,16 @@ from the events it names:
 """
 from __future__ import annotations
 
-from solver.effects import EFFECTS
+from solver.effects import EFFECTS, Param
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import calibrated_params, to_unit
+
+
+def within_tolerance(p: Param, v: float, about: float) -> bool:
+    """Whether `v` lies within `p`'s data-sheet tolerance about `about`,
+    |v - about| <= tolerance x |about|, to the round-off: a factor drawn at
+    the clip of a spread equal to its tolerance is at it, not beyond it."""
+    return p.tolerance is not None and round(abs(v - about), 9) <= p.tolerance * abs(about)
 
 
 def calibration(effect: str, params: dict, ref: dict | None = None) -> str | None:
@@ -34,7 +41,7 @@ def calibration(effect: str, params: dict, ref: dict | None = None) -> str | Non
     for name in eff.calibrated:
         p, v = eff.params[name], params.get(name)
         about = float(ref.get(name, p.off))
-        if p.tolerance is None or v is None or abs(v - about) > p.tolerance * abs(about):
+        if v is None or not within_tolerance(p, v, about):
             return None
         parts.append(f"{effect}.{name} = {v:.3g}, within the data sheet's +/- {100 * p.tolerance:.0f} % "
                      f"({p.doc})" + (f" of the fleet's {about:.3g}" if name in ref else ""))

@@ -40,7 +40,7 @@ from flighttest.residual import residual
 from solver.chain import DivergenceError
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import gap
-from workbench.diagnosis.explanation import events_of
+from workbench.diagnosis.explanation import events_of, within_tolerance
 from workbench.diagnosis.rank import diagnose_family
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
@@ -93,10 +93,10 @@ SCATTER = {"drogue_cl_factor": ("drogue_lift", "scale"), "drogue_cd_factor": ("d
 
 def off_sheet(form: dict) -> set:
     """The effects whose hardware `form` scattered beyond the data sheet's
-    tolerance (a factor f with |f - 1| > tolerance; one drawn at the clip of
-    a spread equal to its tolerance is at it, not beyond, to the round-off)."""
+    tolerance about its value (a factor f off 1 by more than the tolerance:
+    the diagnosis's own test, `explanation.within_tolerance`)."""
     return {effect for key, (effect, name) in SCATTER.items()
-            if key in form and round(abs(form[key] - 1.0), 9) > EFFECTS[effect].params[name].tolerance}
+            if key in form and not within_tolerance(EFFECTS[effect].params[name], form[key], 1.0)}
 
 
 def signature(path: Path, reference) -> dict:
