@@ -56,6 +56,8 @@ class Param:
     * `probe`: the value the diagnosis's sensitivity screen probes (and its
       mirror about `off` in the search's scale).
     * `log`: the search's grid is logarithmic (a factor spanning decades).
+    * `refined`: a form parameter of the effect, searched only once the
+      effect is selected (`Effect.refined`), not when it competes to enter.
     * `tolerance`: for a factor on a known value (a wind-tunnel coefficient, a
       handbook coefficient, a bench stiffness), that value's own plausible
       spread as a fraction: a factor fitted within off x (1 +/- tolerance)
@@ -75,6 +77,7 @@ class Param:
     log: bool = False
     tolerance: Optional[float] = None
     scan_s: Optional[float] = None
+    refined: bool = False
 
     def check(self, value) -> Optional[str]:
         """A complaint about `value`, or None."""
@@ -133,7 +136,12 @@ class Effect:
     @property
     def calibrated(self) -> list[str]:
         """The parameters the diagnosis calibrates, in the registry's order."""
-        return [k for k, p in self.params.items() if p.search is not None]
+        return [k for k, p in self.params.items() if p.search is not None and not p.refined]
+
+    @property
+    def refined(self) -> list[str]:
+        """Its form parameters (`Param.refined`): searched on a selected set only."""
+        return [k for k, p in self.params.items() if p.search is not None and p.refined]
 
     @property
     def scanned(self) -> list[str]:
@@ -329,34 +337,33 @@ def _register(e: Effect):
 
 _register(Effect(
     "tanker_wake", "Tanker wing and fuselage wake",
-    model=("The wing as Prandtl's lifting line with elliptic loading, root circulation "
-           "Gamma0 = 4 W / (pi rho V b) from the gross weight W, span b, true airspeed V and density "
-           "rho, cut into 80 cosine-spaced horseshoes whose trailing legs form a flat sheet "
-           "along the free stream (the near wake: the sheet rolls up into two tip vortices only "
-           "several spans behind the wing, Spreiter & Sacks 1951, and the hose trails within "
-           "half a span). Each filament has a Hallock-Burnham core. The straight, unswept "
-           "bound vortex passes through the tanker's centre of gravity, the sheet lies at the "
-           "wing root's height above the tow point, and the centre line sits at minus the tow "
-           "point's span station (data sheet), each moved by the offsets. Far behind the wing "
-           "the sheet's downwash is 2 C_L V / (pi AR) across the whole span; at the wing, half "
-           "that. For a centre-line store the fuselage's wake matters too: a self-similar "
-           "axisymmetric Gaussian velocity deficit carrying the momentum deficit of the "
-           "fuselage's drag area, from the CG station, its axis one fuselage radius above the "
-           "wing root (low-wing tankers). The field is steady in the tow-point frame and is "
-           "sampled on a grid around the hose once per model. The bound vortex's near field "
-           "at the tow point is the least certain part: a real wing spreads it over the "
-           "chord, and the core radius stands for that."),
-    source=("Anderson, Fundamentals of Aerodynamics, 5th ed., Sec. 5.3 (lifting line, elliptic "
-            "loading); Katz & Plotkin, Low-Speed Aerodynamics, 2nd ed., Eq. 2.68 (Biot-Savart "
-            "segment); Hallock & Burnham (1982) vortex core; Spreiter & Sacks (1951) roll-up "
-            "distance; Pope, Turbulent Flows (2000), Sec. 5.2 (axisymmetric wake, spreading rate "
-            "0.51); Hoerner, Fluid-Dynamic Drag (1965), Ch. 6 (fuselage drag)."),
+    model=("The wing as Prandtl's lifting line with elliptic loading, root circulation Gamma0 = 4 W / (pi rho V "
+           "b) from the gross weight W, span b, true airspeed V and density rho, cut into 80 cosine-spaced "
+           "horseshoes whose trailing legs form a flat sheet along the free stream (the near wake: the sheet "
+           "rolls up into two tip vortices only several spans behind the wing, Spreiter & Sacks 1951, and the "
+           "hose trails within half a span). Each filament has a Hallock-Burnham core. The straight, unswept "
+           "bound vortex passes through the tanker's centre of gravity, the sheet lies at the wing root's height"
+           " above the tow point, and the centre line sits at minus the tow point's span station (data sheet), "
+           "each moved by the offsets. Far behind the wing the sheet's downwash is 2 C_L V / (pi AR) across the "
+           "whole span; at the wing, half that. For a centre-line store the fuselage's wake matters too: a self-"
+           "similar axisymmetric Gaussian velocity deficit carrying the momentum deficit of the fuselage's drag "
+           "area, from the CG station, its axis one fuselage radius above the wing root (low-wing tankers). The "
+           "field is steady in the tow-point frame and is sampled on a grid around the hose once per model. The "
+           "bound vortex's near field at the tow point is the least certain part: a real wing spreads it over "
+           "the chord, and the core radius stands for that. For a wing pod so is the sheet's span position: "
+           "rolling up, the sheet gathers towards vortices pi/4 of the semi-span out, which trades sidewash for "
+           "downwash at the pod's hose; the lateral offset, refined once the wake is selected, stands for that."),
+    source=("Anderson, Fundamentals of Aerodynamics, 5th ed., Sec. 5.3 (lifting line, elliptic loading); Katz & "
+            "Plotkin, Low-Speed Aerodynamics, 2nd ed., Eq. 2.68 (Biot-Savart segment); Hallock & Burnham (1982) "
+            "vortex core; Spreiter & Sacks (1951) roll-up distance; Pope, Turbulent Flows (2000), Sec. 5.2 "
+            "(axisymmetric wake, spreading rate 0.51); Hoerner, Fluid-Dynamic Drag (1965), Ch. 6 (fuselage drag)."),
     params={
         "strength": Param("-", 1.0, 0.0, 3.0, "scale on the circulation and the fuselage deficit",
                           off=0.0, search=(0.0, 3.0), probe=0.5),
         "vertical_offset_m": Param("m", 0.0, -5.0, 5.0,
                                    "raises the sheet (dihedral, wake descent: negative)", off=0.0),
-        "lateral_offset_m": Param("m", 0.0, -10.0, 10.0, "moves the whole wake to starboard", off=0.0),
+        "lateral_offset_m": Param("m", 0.0, -10.0, 10.0, "moves the whole wake to starboard", off=0.0,
+                                  search=(-6.0, 6.0), probe=3.0, refined=True),
         "core_radius_m": Param("m", 1.0, 0.05, 5.0, "Hallock-Burnham core of every filament", off=1.0),
         "fuselage_drag_area_m2": Param("m^2", 0.6, 0.0, 10.0,
                                        "fuselage C_D A (0.6: a business jet such as the G-III)", off=0.6),
@@ -385,17 +392,15 @@ _register(Effect(
 
 _register(Effect(
     "turbulence", "Dryden turbulence",
-    model=("Medium/high-altitude Dryden turbulence (isotropic: sigma_u = sigma_v = sigma_w, "
-           "L_u = 2 L_v = 2 L_w): each component is its MIL-HDBK-1797 forming filter driven by "
-           "seeded white noise, discretised exactly in distance, frozen and carried downstream "
-           "with the air (Taylor's hypothesis), so a gust reaches the drogue later than the tow "
-           "point. The field varies along the flight path only: across the hose (tens of metres) "
-           "against L_u = 533 m the correlation stays above 0.96. The tanker's own response to "
-           "the turbulence is the tow point's prescribed motion, not this effect's."),
-    source=("MIL-HDBK-1797 (1997) Sec. 4.9.2 / MIL-F-8785C Sec. 3.7: Dryden spectra and forming "
-            "filters, scale length 1750 ft above 2000 ft, intensity from the "
-            "probability-of-exceedance chart (at 15 000 ft: light 4.6, moderate 8.0, severe "
-            "22.1 ft/s; `mil_hdbk_1797_sigma`)."),
+    model=("Medium/high-altitude Dryden turbulence (isotropic: sigma_u = sigma_v = sigma_w, L_u = 2 L_v = 2 "
+           "L_w): each component is its MIL-HDBK-1797 forming filter driven by seeded white noise, discretised "
+           "exactly in distance, frozen and carried downstream with the air (Taylor's hypothesis), so a gust "
+           "reaches the drogue later than the tow point. The field varies along the flight path only: across the "
+           "hose (tens of metres) against L_u = 533 m the correlation stays above 0.96. The tanker's own "
+           "response to the turbulence is the tow point's prescribed motion, not this effect's."),
+    source=("MIL-HDBK-1797 (1997) Sec. 4.9.2 / MIL-F-8785C Sec. 3.7: Dryden spectra and forming filters, scale "
+            "length 1750 ft above 2000 ft, intensity from the probability-of-exceedance chart (at 15 000 ft: "
+            "light 4.6, moderate 8.0, severe 22.1 ft/s; `mil_hdbk_1797_sigma`)."),
     params={
         "sigma_mps": Param("m/s", 1.4, 0.0, 10.0, "rms of each component (1.4: light at 15 000 ft)", off=0.0),
         "length_scale_m": Param("m", 533.4, 50.0, 2000.0, "longitudinal scale L_u (1750 ft)", off=533.4),
@@ -408,18 +413,15 @@ _register(Effect(
 
 _register(Effect(
     "bow_wave", "Receiver bow wave",
-    model=("The receiver's forebody as a Rankine half-body: a point source of volume flux "
-           "Q = pi R^2 V (asymptotic body radius R) in the free stream V, placed R/2 behind the "
-           "nose (the stagnation point), moving with the probe; the source's field "
-           "Q r / (4 pi |r|^3) is added to the air velocity. The probe tip follows the context's "
-           "probe path, or approaches the drogue's static position along -x at the closure rate "
-           "from `start_gap_m` and holds station at contact (no contact model here); a case "
-           "with a log flies the logged probe track. The nose "
-           "sits at the given offsets from the probe tip (an F/A-18E/F's probe is to starboard "
-           "of and above the nose)."),
-    source=("Anderson, Fundamentals of Aerodynamics, 5th ed., Sec. 6.5 (3D source, Rankine "
-            "half-body: stagnation point sqrt(Q / 4 pi V) ahead of the source, radius "
-            "sqrt(Q / pi V)); Katz & Plotkin, Sec. 3.8."),
+    model=("The receiver's forebody as a Rankine half-body: a point source of volume flux Q = pi R^2 V "
+           "(asymptotic body radius R) in the free stream V, placed R/2 behind the nose (the stagnation point), "
+           "moving with the probe; the source's field Q r / (4 pi |r|^3) is added to the air velocity. The probe "
+           "tip follows the context's probe path, or approaches the drogue's static position along -x at the "
+           "closure rate from `start_gap_m` and holds station at contact (no contact model here); a case with a "
+           "log flies the logged probe track. The nose sits at the given offsets from the probe tip (an "
+           "F/A-18E/F's probe is to starboard of and above the nose)."),
+    source=("Anderson, Fundamentals of Aerodynamics, 5th ed., Sec. 6.5 (3D source, Rankine half-body: stagnation "
+            "point sqrt(Q / 4 pi V) ahead of the source, radius sqrt(Q / pi V)); Katz & Plotkin, Sec. 3.8."),
     params={
         "strength": Param("-", 1.0, 0.0, 3.0, "scale on the source strength", off=0.0, search=(0.0, 3.0), probe=1.0),
         "body_radius_m": Param("m", 1.0, 0.2, 3.0, "equivalent radius of the receiver's forebody", off=1.0),
@@ -433,11 +435,10 @@ _register(Effect(
 
 _register(Effect(
     "steady_wind", "Steady relative wind at the pod",
-    model=("A constant air velocity added in the tow-point frame: a vertical component is a "
-           "change of the local flow angle at the pod (angle of attack, upwash), "
-           "d_alpha ~ -vertical / V; a lateral one a sideslip, beta ~ lateral / V. It rotates the "
-           "relative wind the hose and drogue see; gravity stays put, so the trail turns by "
-           "less than the wind."),
+    model=("A constant air velocity added in the tow-point frame: a vertical component is a change of the local "
+           "flow angle at the pod (angle of attack, upwash), d_alpha ~ -vertical / V; a lateral one a sideslip, "
+           "beta ~ lateral / V. It rotates the relative wind the hose and drogue see; gravity stays put, so the "
+           "trail turns by less than the wind."),
     source="Kinematics of the relative wind (no model uncertainty); ARES paper, Sec. IV.B.2 future work.",
     params={
         "vertical_mps": Param("m/s", 0.0, -20.0, 20.0, "air moving up through the frame", off=0.0,
@@ -449,10 +450,9 @@ _register(Effect(
 
 _register(Effect(
     "gust", "Discrete 1-cosine gust",
-    model=("MIL-HDBK-1797 discrete gust v = V_m/2 (1 - cos(pi x / d_m)) over the ramp length "
-           "d_m, then V_m held; or, `full_wave` = 1, back to zero over another d_m (the "
-           "'1-cosine' pulse). The gust front is frozen in the air: it passes the tow point at "
-           "`start_s` and reaches the drogue a hose length / V later."),
+    model=("MIL-HDBK-1797 discrete gust v = V_m/2 (1 - cos(pi x / d_m)) over the ramp length d_m, then V_m held; "
+           "or, `full_wave` = 1, back to zero over another d_m (the '1-cosine' pulse). The gust front is frozen "
+           "in the air: it passes the tow point at `start_s` and reaches the drogue a hose length / V later."),
     source="MIL-HDBK-1797 (1997) Sec. 4.9.2, discrete gust model (MIL-F-8785C Sec. 3.7.2).",
     params={
         # a vertical gust (MIL-HDBK-1797's for a pitch response), its length held at the default: time

@@ -176,6 +176,8 @@ SCHEMA = {
         "tune_drogue_lift_on": Field(list, []),
         "calibrate": Field(list, []),
         "calibrate_on": Field(list, []),
+        # form parameters ("effect.parameter", `Effect.refined`) of the calibrated effects, fitted with them
+        "refine": Field(list, []),
     },
     "gates": {
         "metric": Field(str, required=True),
@@ -230,6 +232,12 @@ def _check_calibration(p: Path, v: dict) -> None:
             why = (EFFECTS[e].not_calibrated or "a transient at one log's own time") if e in EFFECTS \
                 else f"known: {', '.join(known)}"
             raise InputError(f"{where} calibrate: effect {e!r} cannot be calibrated ({why})")
+    for item in v["refine"]:
+        e, _, name = str(item).partition(".")
+        if e not in v["calibrate"] or name not in EFFECTS[e].refined:
+            forms = [f"{x}.{k}" for x in v["calibrate"] for k in EFFECTS[x].refined]
+            raise InputError(f"{where} refine: {item!r} is no form parameter of a calibrated effect "
+                             f"(known: {', '.join(forms) or 'none'})")
 
 
 def _check_table(path: str, name: str, raw: dict) -> dict:
@@ -298,7 +306,7 @@ def load_case(path: str | Path) -> Case:
     if len(set(ids)) != len(ids):
         raise InputError(f"{p}: [[variants]] ids must be unique, got {ids}")
     for v in tables["variants"]:
-        if v["calibrate"] or v["calibrate_on"]:
+        if v["calibrate"] or v["calibrate_on"] or v["refine"]:
             _check_calibration(p, v)
     for g in tables["gates"]:
         if g["max"] is None and g["min"] is None:

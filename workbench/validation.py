@@ -421,8 +421,11 @@ def calibrate_variant(case: Case, v: dict, paths: list[str]) -> dict:
     them (the order forward selection added them), each fit starting at the
     last one's values (the grid spans only the new effect's parameters), as
     the diagnosis fitted them: a cold grid over four or five effects'
-    parameters at once would cost thousands of simulations."""
-    setup = Setup(None, str(case.path), tuple(sorted(_overrides(v, {}).items())), signatures=False)
+    parameters at once would cost thousands of simulations. The form
+    parameters the variant's `refine` names ("effect.parameter") are fitted
+    with their effect, as the diagnosis's refinement fitted them."""
+    setup = Setup(None, str(case.path), tuple(sorted(_overrides(v, {}).items())), signatures=False,
+                  refined=tuple(tuple(str(x).split(".", 1)) for x in v.get("refine") or ()))
     cal = None
     for k in range(1, len(v["calibrate"]) + 1):
         cal = EffectCalibrator(v["calibrate"][:k], setup).fit(paths, start=cal.params_ if cal else None)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from solver.effects import EFFECTS, Param
 from workbench.diagnosis.result import Candidate
-from workbench.diagnosis.setup import calibrated_params, to_unit
+from workbench.diagnosis.setup import to_unit
 
 
 def within_tolerance(p: Param, v: float, about: float) -> bool:
@@ -69,10 +69,9 @@ def implausibility(c: Candidate) -> str | None:
     logs want it there or beyond: the effect is standing in for another); a
     time in the log (`Param.scan_s`) is bounded by the log, not the physics."""
     out = []
-    for eff, name, p in calibrated_params(tuple(c.effects)):
-        v = c.params.get(eff, {}).get(name)
-        if v is None:
-            continue
+    # every fitted value, a refined form parameter's (`Effect.refined`) too
+    for eff, name, v in ((e, k, v) for e, ps in c.params.items() for k, v in ps.items()):
+        p = EFFECTS[eff].params[name]
         if not (p.lo <= v <= p.hi):
             out.append(f"{eff}.{name} = {v:.3g} outside its physical range {p.lo:g}..{p.hi:g} {p.unit}")
         elif p.search and not p.scan_s and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):

@@ -117,10 +117,11 @@ def baseline_held_out(paths: Sequence[str], base: dict) -> list[Components]:
             for path, seg in map(path_and_segment, fold.test)]
 
 
-def effects_at(candidate: tuple, x) -> dict:
-    """{effect: {param: value}} of `candidate` at the parameter vector `x`."""
+def effects_at(candidate: tuple, x, refined: tuple = ()) -> dict:
+    """{effect: {param: value}} of `candidate` (with its form parameters
+    `refined`, `setup.calibrated_params`) at the parameter vector `x`."""
     out: dict = {}
-    for (eff, name, _), v in zip(calibrated_params(candidate), x):
+    for (eff, name, _), v in zip(calibrated_params(candidate, refined), x):
         out.setdefault(eff, {})[name] = float(v)
     return out
 
@@ -149,6 +150,9 @@ class EffectCalibrator:
     def candidate(self) -> tuple:
         return ordered(self.effects)
 
+    def _at(self, x) -> dict:
+        return effects_at(self.candidate, x, self.setup.refined)
+
     def _residual(self, parts, effects: dict) -> np.ndarray:
         return np.concatenate([components(part, effects, self.setup).r for part in parts])
 
@@ -156,7 +160,7 @@ class EffectCalibrator:
         """Fit on `parts`; `start` ({effect: {param: value}}) holds parameters
         already fitted (warm start): they are not gridded, only polished."""
         candidate = self.candidate
-        cal = calibrated_params(candidate)
+        cal = calibrated_params(candidate, self.setup.refined)
         ps = [p for _, _, p in cal]
         n = len(ps)
         start = start or {}
@@ -164,7 +168,7 @@ class EffectCalibrator:
         free = np.flatnonzero(np.isnan(u_start))
 
         def res(u):
-            return self._residual(parts, effects_at(candidate, [from_unit(p, ui) for p, ui in zip(ps, u)]))
+            return self._residual(parts, self._at([from_unit(p, ui) for p, ui in zip(ps, u)]))
         off = [to_unit(ps[i], self.setup.off(cal[i][0], cal[i][1])) for i in free]
         scanned = any(ps[i].scan_s for i in free)
         self.looks_ = 1
@@ -235,7 +239,7 @@ class EffectCalibrator:
             se.append(abs(slope) * s)
         self.x_, self.stderr_x_, self.gap_train_ = x, se, gap(r)
         self.gap_before_ = gap([gap(self._residual([p], {})) for p in parts])
-        self.params_, self.stderr_ = effects_at(candidate, x), effects_at(candidate, se)
+        self.params_, self.stderr_ = self._at(x), self._at(se)
         return self
 
     def _scan(self, parts, res, cal: list, free, u_start, off: list) -> tuple[list, list]:
@@ -284,8 +288,7 @@ class EffectCalibrator:
         """Take parameters fitted elsewhere (the mean of a one-log family's two
         folds) as this calibrator's own, to score them."""
         self.x_, self.stderr_x_ = list(x), list(stderr_x)
-        self.params_ = effects_at(self.candidate, self.x_)
-        self.stderr_ = effects_at(self.candidate, self.stderr_x_)
+        self.params_, self.stderr_ = self._at(self.x_), self._at(self.stderr_x_)
         return self
 
     def part_gaps(self, parts: Sequence[Part]) -> list[float]:

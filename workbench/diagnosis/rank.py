@@ -74,7 +74,7 @@ from workbench.diagnosis.select import Selection, acceptance, forward_select, wi
 from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
                                        NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of,
-                                       freeze, one_log_event)
+                                       freeze, one_log_event, refinable)
 from workbench.diagnosis.turbulence import random_candidate
 from workbench.diagnosis.where import where_map
 from workbench.parallel import Mapper
@@ -188,7 +188,8 @@ def with_random_share(ranking: list, weights: dict, presence: float) -> None:
     turbulence takes `presence` of its deterministic set's weight (found in
     `ranking` by its effects; "none" for turbulence alone), which keeps the
     rest; one whose deterministic set is not ranked gets 0."""
-    by_set = {tuple(c.effects): c for c in ranking if "turbulence" not in c.effects}
+    # the first ranked of a set (the selected one, where a refinement of its form fitted it twice)
+    by_set = {tuple(c.effects): c for c in reversed(ranking) if "turbulence" not in c.effects}
     for c in ranking:
         c.probability = weights.get(id(c), 0.0)
     for c in ranking:
@@ -300,7 +301,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # bow wave in the seconds before contact) spans a few per cent of a baseline
     # dominated by a steady offset, yet may be all that is left once that is explained
     pool = order
-    sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say)
+    sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say, refinable=refinable(case))
     # turbulence from its statistics, its random motion measured about the selected set's time runs
     turb = random_candidate(paths, base, sel.chosen, setup, mapper)
     chance = within_chance(sel, turb, floor)
@@ -311,7 +312,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         say(f"{', '.join(chance)} within what turbulence of {turb.estimate.sigma_mps:.2f} m/s explains by chance "
             f"along its pattern: selecting again, each step against the noise floor and that")
         sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say,
-                             chance=turb.chance_offset)
+                             chance=turb.chance_offset, refinable=refinable(case))
         sel.stopped += (f" (each step against the noise floor and what the random motion explains by chance "
                         f"along its pattern: {', '.join(chance)} had been accepted within it)")
         turb = random_candidate(paths, base, sel.chosen, setup, mapper)

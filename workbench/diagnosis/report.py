@@ -106,6 +106,14 @@ def _shares_text(c) -> str:
     return " (shares of the gap: " + ", ".join(f"{esc(e)} {100 * v:.0f} %" for e, v in c["shares"].items()) + ")"
 
 
+def _step_label(s: dict) -> str:
+    """What a selection step did: the effect it added, the form parameters it
+    refined or the effect it removed."""
+    if "added" in s:
+        return s["added"]
+    return f"refined: {s['refined']}" if "refined" in s else f"removed: {s['removed']}"
+
+
 def _selection_blocks(d: dict) -> list:
     """The forward selection: each step's best addition, its gain against the
     gap it started from, the verdict and the share; and why it stopped. A
@@ -113,7 +121,7 @@ def _selection_blocks(d: dict) -> list:
     sel = d.get("selection")
     if not sel:
         return []
-    rows = [[s["step"], Cell(esc(s["added"] if "added" in s else f"removed: {s['removed']}")), s["gap_heldout_before_m"], s["gap_heldout_after_m"], s["gain_m"],
+    rows = [[s["step"], Cell(esc(_step_label(s))), s["gap_heldout_before_m"], s["gap_heldout_after_m"], s["gain_m"],
              s["new_params"], Cell("accepted" if s["accepted"] else "refused"),
              None if s["share"] is None else 100 * s["share"]] for s in sel["steps"]]
     return [Table(["step", "best addition", "held-out gap before (m)", "after (m)", "gain (m)", "new parameters",

@@ -26,8 +26,14 @@ current held-out gap: each parameter must buy `PARAM_PENALTY` of what is left
 noise floor of each addition is `widened` by what that motion explains by
 chance along the addition's own pattern, and an addition within it is set
 aside before the step chooses.
-Once it stops, backward elimination (`_backward`) drops a selected event
-that the later ones made redundant.
+Once it stops, the selected effects' form parameters that the family's
+hardware lets the logs tell (`refinable`, `setup.refinable`: the tanker
+wake's span position behind a wing pod) are refined on the selected set
+(`_refine`), and kept when they earn one more parameter's place by the same
+rule: a form parameter free at entry would let its effect mimic another (a
+wake moved sideways, a steady wind) and pay a parameter more against
+everything else. Then backward elimination (`_backward`) drops a selected
+event that the later ones made redundant.
 Otherwise, or at `MAX_EFFECTS` effects, the selection stops and says why.
 Each accepted effect's share of the gap is its step's gain over the baseline
 held-out gap: the shares add up to the selected set's held-out shrink.
@@ -56,10 +62,11 @@ from workbench.diagnosis.setup import (LIGHT_TURBULENCE_MPS, MAX_EFFECTS, NOISE_
 from workbench.errors import SimulationFailed
 
 
-def warm_start(c: Candidate) -> dict:
-    """Where a fit that adds an effect to `c` (or drops one) starts: each fold
-    at `c`'s values fitted on that fold, the all-logs fit at `c`'s own."""
-    return {"folds": [effects_at(tuple(c.effects), f["params"]) for f in c.folds], "all": c.params}
+def warm_start(c: Candidate, refined: tuple = ()) -> dict:
+    """Where a fit that adds an effect to `c` (or drops one, or refines its
+    form) starts: each fold at `c`'s values fitted on that fold (`c` fitted
+    with the form parameters `refined`), the all-logs fit at `c`'s own."""
+    return {"folds": [effects_at(tuple(c.effects), f["params"], refined) for f in c.folds], "all": c.params}
 
 
 def score_candidate(job) -> Candidate:
@@ -68,7 +75,7 @@ def score_candidate(job) -> Candidate:
     in a worker process (or a Dask worker)."""
     paths, candidate, setup, warm = job
     t_start = time.perf_counter()
-    n_params = len(calibrated_params(candidate))
+    n_params = len(calibrated_params(candidate, setup.refined))
     try:
         return _fit_and_score(paths, candidate, setup, warm, n_params, t_start)
     except SimulationFailed as exc:
@@ -227,13 +234,16 @@ class Selection:
     """What forward selection found: `chosen` the selected set (None: no
     effect earned its place), `fitted` every candidate scored on the way (each
     step's alternatives, the accepted sets among them), `failed` those whose
-    simulation failed, `steps` one dict per step, `stopped` why it ended."""
+    simulation failed, `steps` one dict per step, `stopped` why it ended,
+    `refined` the form parameters ((effect, parameter), ...) `chosen` was
+    fitted with besides the calibrated ones (`_refine`)."""
 
     chosen: Candidate | None
     fitted: list
     failed: list
     steps: list
     stopped: str
+    refined: tuple = ()
 
     def additions(self) -> list[tuple[dict, Candidate | None, Candidate]]:
         """(step, the set before it, the set it made) for every accepted step
@@ -252,15 +262,18 @@ class Selection:
     def to_json(self) -> dict:
         return {"effects": list(self.chosen.effects) if self.chosen else [],
                 "shares": dict(self.chosen.shares) if self.chosen else {}, "steps": self.steps,
-                "stopped": self.stopped, "max_effects": MAX_EFFECTS}
+                "stopped": self.stopped, "max_effects": MAX_EFFECTS,
+                "refined": [f"{e}.{n}" for e, n in self.refined]}
 
 
 def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before: float, floor: float,
                    score: Callable = score_candidate, say: Callable[[str], None] = lambda s: None,
-                   chance: Callable | None = None) -> Selection:
+                   chance: Callable | None = None, refinable: tuple = ()) -> Selection:
     """Forward selection over `pool` (effect names) from the baseline, whose
     held-out gap is `gap_before` (m), against the noise floor `floor` (m),
-    each step's widened by `chance` when given (`widened`)."""
+    each step's widened by `chance` when given (`widened`); then the form
+    parameters `refinable` ((effect, parameter), ...) of the selected set
+    refined (`_refine`)."""
     chosen, current, fitted, failed, steps, dropped = None, gap_before, [], [], [], set()
     stopped = f"{MAX_EFFECTS} effects selected (the most forward selection adds)"
     standing = ordered(e for e in pool if EFFECTS[e].model_form)
@@ -327,9 +340,49 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         chosen, current = best, best.gap_after_heldout
         say(f"step {k}: {added} accepted, held-out gap {current:.3f} m")
     if chosen is not None:
+        chosen, setup = _refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, say,
+                                chance, refinable)
         chosen, stopped = _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed,
                                     stopped, say, chance)
-    return Selection(chosen, fitted, failed, steps, stopped)
+    return Selection(chosen, fitted, failed, steps, stopped, setup.refined)
+
+
+def _refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, say, chance,
+            refinable) -> tuple:
+    """(the selected set, the setup it is fitted with): `chosen` refitted with
+    its effects' form parameters among `refinable` free (gridded from their
+    off values, the rest polished from `chosen`'s), kept when the gain earns
+    their place (`acceptance`, each a new parameter). The refinement's gain
+    is the refined effect's share."""
+    pairs = tuple(pr for pr in refinable if pr[0] in chosen.effects and pr not in setup.refined)
+    if not pairs:
+        return chosen, setup
+    wider = dataclasses.replace(setup, refined=setup.refined + pairs)
+    (c,) = mapper(score, [(paths, tuple(chosen.effects), wider, warm_start(chosen, setup.refined))])
+    if not c.success:
+        failed.append(c)
+        return chosen, setup
+    k, what = steps[-1]["step"] + 1, ", ".join(f"{e}.{n}" for e, n in pairs)
+    c.step = k
+    fitted.append(c)
+    current, gain = chosen.gap_after_heldout, chosen.gap_after_heldout - c.gap_after_heldout
+    n_new = c.n_params - chosen.n_params
+    refused = acceptance(gain, n_new, current, widened(floor, chance, chosen, c))
+    steps.append({"step": k, "refined": what, "candidate": c.effect, "gap_heldout_before_m": current,
+                  "gap_heldout_after_m": c.gap_after_heldout, "gain_m": gain, "new_params": n_new,
+                  "accepted": refused is None, "share": gain / gap_before if gap_before else None,
+                  "alternatives": {}})
+    if refused:
+        c.why_not_first = f"step {k}: refining {what} refused, it {refused}"
+        say(f"step {k}: refining {what} refused")
+        return chosen, setup
+    shares = dict(chosen.shares or {})
+    for e in {e for e, _ in pairs}:
+        shares[e] = shares.get(e, 0.0) + (steps[-1]["share"] or 0.0) / len({e for e, _ in pairs})
+    c.shares = shares
+    chosen.why_not_first = f"step {k}: {what} refined, held-out gap {c.gap_after_heldout:.3f} m"
+    say(f"step {k}: {what} refined, held-out gap {c.gap_after_heldout:.3f} m")
+    return c, wider
 
 
 def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, stopped, say,
@@ -348,7 +401,7 @@ def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fit
         if len(events) < 2:
             # one event: its own step accepted it against what was there before it
             return chosen, stopped
-        warm = warm_start(chosen)
+        warm = warm_start(chosen, setup.refined)
         jobs = [(paths, ordered(x for x in chosen.effects if x != e), setup, warm) for e in events]
         out = list(mapper(score, [j for j in jobs if j[1]])) if any(j[1] for j in jobs) else []
         by_set = {tuple(c.effects): c for c in out}

@@ -17,6 +17,7 @@ from solver.effects import EFFECTS, Param
 from workbench.cases import Case, load_case
 from workbench.config import defaults
 from workbench.errors import InputError
+from workbench.hardware import load_hardware
 
 TEMPLATES = Path(__file__).resolve().parent.parent.parent / "cases" / "templates"
 DIAG_KINDS = ("pitch_doublet", "trail", "engagement")
@@ -47,10 +48,13 @@ GAP_DEFINITION = {
 }
 
 
-def calibrated_params(candidate: tuple) -> list[tuple[str, str, Param]]:
+def calibrated_params(candidate: tuple, refined: tuple = ()) -> list[tuple[str, str, Param]]:
     """(effect, parameter, its registry entry) for every parameter `candidate`'s
-    effects calibrate, in the candidate's order then the registry's."""
-    return [(eff, name, EFFECTS[eff].params[name]) for eff in candidate for name in EFFECTS[eff].calibrated]
+    effects calibrate, with the form parameters `refined` ((effect, parameter)
+    pairs, `Effect.refined`) of its effects, in the candidate's order then the
+    registry's."""
+    return [(eff, name, p) for eff in candidate for name, p in EFFECTS[eff].params.items()
+            if name in EFFECTS[eff].calibrated or (eff, name) in refined]
 
 
 def to_unit(p: Param, v: float) -> float:
@@ -90,6 +94,19 @@ def applicable(effect: str, kind: str, case: Case, rec: FlightRecord) -> str | N
     if effect == "hose_stiffness" and kind == "trail":
         return "a steady trail of a long hose hangs on tension, not bending"
     return None
+
+
+def refinable(case: Case) -> tuple:
+    """((effect, parameter), ...): the form parameters (`Effect.refined`) a
+    diagnosis of this hardware refines once their effect is selected. The
+    tanker wake's span position is held for a tow point on the tanker's centre
+    line (a buddy store): there the sheet's roll-up is symmetric about the
+    hose and moves no sidewash, so a sideways offset could only stand in for
+    something else (a steady wind)."""
+    tid = case["hardware"].get("tanker")
+    centre_line = bool(tid) and load_hardware().get("tanker", tid).tow_point_span_station == 0.0
+    return tuple((e, name) for e, eff in EFFECTS.items() for name in eff.refined
+                 if not (e == "tanker_wake" and centre_line))
 
 
 def one_log_event(effect: str) -> str | None:
@@ -135,13 +152,17 @@ class Setup:
     apart; a validation variant's calibration leaves them out, its gates
     being set on the comparison's own components. `prior`: effects every
     simulation carries under a candidate's own (`prior_effects`), frozen as
-    ((effect, ((param, value), ...)), ...)."""
+    ((effect, ((param, value), ...)), ...). `refined`: the form parameters
+    ((effect, parameter), ...) calibrated besides the registry's
+    `Effect.calibrated`, once forward selection has refined them on its set
+    (or a validation variant names them)."""
 
     n_elements: int | None = DEFAULT_ELEMENTS
     case_path: str | None = None
     overrides: tuple = ()
     signatures: bool = True
     prior: tuple = ()
+    refined: tuple = ()
 
     @property
     def prior_effects(self) -> dict:
