@@ -5,6 +5,7 @@ a centre-line tow point, and a validation variant's `refine`. Synthetic
 residuals and scorers stand in for the simulation, as in test_select."""
 import math
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -140,7 +141,7 @@ def test_nothing_is_refined_where_the_hardware_holds_the_form_or_its_effect_is_n
 
 
 def _trail_case(tmp_path, variant: str):
-    src = (__import__("pathlib").Path(__file__).resolve().parents[2] / "cases" / "kdc10_trail.toml").read_text()
+    src = (Path(__file__).resolve().parents[2] / "cases" / "kdc10_trail.toml").read_text()
     src += f"\n[[variants]]\nid = \"probe\"\n{variant}\n"
     p = tmp_path / "case.toml"
     p.write_text(src)
@@ -155,3 +156,23 @@ def test_a_variant_refines_only_a_form_parameter_of_an_effect_it_calibrates(tmp_
                 'calibrate = ["tanker_wake"]\ncalibrate_on = ["TR-KDC10-E7"]\nrefine = ["tanker_wake.strength"]'):
         with pytest.raises(InputError, match=r"refine: .* no form parameter of a calibrated effect"):
             load_case(_trail_case(tmp_path, bad))
+
+
+def test_a_variants_refine_reaches_its_calibration_with_its_effect(tmp_path, monkeypatch):
+    import workbench.validation as V
+    seen = []
+
+    class Recorder:
+        def __init__(self, effects, setup):
+            seen.append((tuple(effects), setup.refined))
+
+        def fit(self, paths, start=None):
+            self.params_, self.stderr_, self.gap_train_, self.gap_before_ = {}, {}, 0.0, 1.0
+            return self
+    monkeypatch.setattr(V, "EffectCalibrator", Recorder)
+    case = load_case(_trail_case(tmp_path, 'calibrate = ["drogue_lift", "tanker_wake"]\ncalibrate_on = '
+                                           '["TR-KDC10-E7"]\nrefine = ["tanker_wake.lateral_offset_m"]'))
+    V.calibrate_variant(case, case["variants"][-1], ["TR-KDC10-E7.mcap"])
+    # one effect more at a time, the form parameter fitted with its effect once that is in
+    assert seen == [(("drogue_lift",), (SPAN,)), (("drogue_lift", "tanker_wake"), (SPAN,))]
+    assert [n for _, n, _ in calibrated_params(seen[0][0], seen[0][1])] == ["scale"]
