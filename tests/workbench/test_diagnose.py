@@ -124,8 +124,10 @@ def test_a_diverging_candidate_is_recorded_with_its_reason_and_never_ranked(monk
     real = E._simulate_frozen
 
     def diverging(path, frozen, setup):
-        # above 2.5 only: the screen's probes (0.5, 1.5) pass, the fit's grid does not
-        if dict(dict(frozen).get("drogue_lift", ())).get("scale", 0.0) > 2.5:
+        # away from the screen's probes (0.5, 1.5) only: they pass, every point of the
+        # fit's grid fails (a grid point alone that fails is no start, `fit._grid_scores`)
+        lift = dict(dict(frozen).get("drogue_lift", ()))
+        if lift and lift["scale"] not in (0.5, 1.5):
             raise DivergenceError(reason)
         return real(path, frozen, setup)
     monkeypatch.setattr(E, "_simulate_frozen", diverging)

@@ -82,6 +82,30 @@ def test_a_warm_start_grids_only_the_new_effect_and_polishes_both(calls):
             assert abs(cal.params_[e][k] - v) <= 3 * cal.stderr_[e][k], (e, k)
 
 
+def test_a_grid_point_that_fails_to_simulate_is_no_start_and_the_fit_goes_on(monkeypatch):
+    # a corner of the search with no steady trail (a wake of over twice the
+    # circulation): its grid points fail, the fit ends at the truth from the others
+    calls, failed = [], []
+    synthetic = _synthetic(calls)
+
+    def evaluate(path, effects, setup):
+        if effects.get("tanker_wake", {}).get("strength", 0.0) > 2.5:
+            failed.append(effects)
+            raise F.SimulationFailed(path, effects, RuntimeError("static solve did not converge"))
+        return synthetic(path, effects, setup)
+    monkeypatch.setattr(F, "evaluate", evaluate)
+    cal = EffectCalibrator(("drogue_drag", "tanker_wake")).fit(PARTS)
+    assert failed, "the grid reaches into the failing corner"
+    for e, ps in TRUTH.items():
+        for k, v in ps.items():
+            assert abs(cal.params_[e][k] - v) <= 3 * cal.stderr_[e][k], (e, k)
+    # every point failing fails the fit, with the simulation's reason
+    monkeypatch.setattr(F, "evaluate", lambda path, effects, setup: (_ for _ in ()).throw(
+        F.SimulationFailed(path, effects, RuntimeError("static solve did not converge"))))
+    with pytest.raises(F.SimulationFailed, match="did not converge"):
+        EffectCalibrator(("tanker_wake",)).fit(PARTS)
+
+
 @pytest.mark.parametrize("decoy_mps", [0.0, 0.7])
 def test_a_scanned_time_is_polished_in_a_second_valley_where_the_best_scan_point_misleads(monkeypatch, decoy_mps):
     # a gust-like pulse (Gaussian, 0.3 s wide) half way between two scan times (1 s apart),

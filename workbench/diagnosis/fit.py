@@ -18,8 +18,9 @@ held-out gap at the fitted parameters, `held_out(parts)` its components.
 A part is a log path, or (path, segment) for one of its alternate time
 blocks; `LeaveOneLogOut` and `TimeBlocks` split a family into folds of parts.
 
-A simulation that fails anywhere in a fit raises `SimulationFailed`: the
-candidate failed, and its reason says where.
+A simulation that fails in a fit raises `SimulationFailed` (the candidate
+failed, and its reason says where), except at a grid point, which is then no
+start (`_grid_scores`).
 """
 from __future__ import annotations
 
@@ -34,6 +35,7 @@ from flighttest.residual import BLOCK_S
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import evaluate, gap
 from workbench.diagnosis.setup import Setup, calibrated_params, from_unit, to_unit
+from workbench.errors import SimulationFailed
 
 Part = Union[str, tuple]     # a log path, or (path, segment 0 | 1)
 
@@ -69,6 +71,22 @@ def _polish_from(scored: list, starts: list, ps: list, free, scanned: bool) -> l
     t_best = from_unit(p, starts[best][it])
     far = [i for _, i in scored[1:] if i != 0 and abs(from_unit(p, starts[i][it]) - t_best) > VALLEY_SCANS * p.scan_s]
     return [best] + far[:1]
+
+
+def _grid_scores(res, starts: list) -> list[tuple[float, int]]:
+    """[(gap, index into starts)] best first. A grid point whose simulation
+    fails is no start (a corner of a 2-D search may hold no steady trail: a
+    wake of three times the circulation with the pod at the sheet's edge); the
+    fit fails only when every point does."""
+    scored, failure = [], None
+    for i, u in enumerate(starts):
+        try:
+            scored.append((gap(res(u)), i))
+        except SimulationFailed as exc:
+            failure = failure or exc
+    if not scored:
+        raise failure
+    return sorted(scored)
 
 
 def path_and_segment(p: Part) -> tuple[str, int | None]:
@@ -188,7 +206,7 @@ class EffectCalibrator:
                 u0 = u_start.copy()
                 u0[free] = fp
                 starts.append(u0)
-            scored = sorted((gap(res(u)), i) for i, u in enumerate(starts))
+            scored = _grid_scores(res, starts)
         # refine from the best grid point, and for two or more free parameters from
         # the runner-up too (a valley across the grid); for a scanned time from the best
         # start of another valley, more than `VALLEY_SCANS` scans from the best (the
