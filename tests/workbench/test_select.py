@@ -2,6 +2,7 @@
 acceptance rule, the shares of the gap, MAX_EFFECTS, and the ranking with its
 probabilities. Synthetic residuals and scorers stand in for the simulation
 (a family's real selection takes minutes); one warm start runs on a real trail."""
+import dataclasses
 import math
 import types
 from pathlib import Path
@@ -398,19 +399,28 @@ def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_set
     assert random_presence(_est(light, 0.1)) == pytest.approx(0.5)
     assert random_presence(_est(light + 0.2, 0.1)) == pytest.approx(0.97725, abs=1e-5)   # Phi(2)
     assert random_presence(_est(2.0, 0.1, real=False)) == 0.0 and random_presence(None) == 0.0
-    sel, g0 = _select({"drogue_lift": 1.0}, floor=0.01, remainder=0.3)
+    from workbench.diagnosis.turbulence import _joined
+    sel, g0 = _select({"tanker_wake": 1.0}, floor=0.01, remainder=0.3)
+    # a refinement of the set's form, refused: the same effects with a parameter more, its own
+    # weight; the joint candidate is the selected set's, not this one's
+    form = _fit({"tanker_wake": {"strength": 0.5, "lateral_offset_m": -3.0}}, 0.8 * sel.chosen.gap_after_heldout)
+    form.n_params, form.step = 2, 2
+    sel = dataclasses.replace(sel, fitted=sel.fitted + [form])
     # the random mean square removed from the set's residual is no smaller residual: the joint
     # candidate's lower gap does not take the weight, the presence decides its share
-    joint = _turb(sel.chosen.effects + ["turbulence"], 0.05)
+    joint = _joined(sel.chosen, _turb(["turbulence"], 0.05))
     sel = SEL.with_random(sel, _turb(["turbulence"], 0.3 * g0), joint, g0, _est(light, 0.2 * light))
     p = random_presence(_est(light - 0.1, 0.1))
     ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200, presence=p)
+    assert ranking.index(form) < ranking.index(next(c for c in ranking if c.effect == "tanker_wake" and c is not form))
     det = [c for c in ranking if "turbulence" not in c.effects]
-    plain = dict(zip((c.effect for c in det), probabilities([c.gap_after_heldout for c in det],
-                                                            [c.n_params for c in det], 0.01, 200)))
-    by = {c.effect: c for c in ranking}
-    assert_allclose(by[joint.effect].probability, p * plain["drogue_lift"], rtol=1e-12)
-    assert_allclose(by["drogue_lift"].probability, (1 - p) * plain["drogue_lift"], rtol=1e-12)
+    plain = dict(zip((id(c) for c in det), probabilities([c.gap_after_heldout for c in det],
+                                                         [c.n_params for c in det], 0.01, 200)))
+    plain = {c.effect if c is not form else "form": plain[id(c)] for c in det}
+    by = {c.effect: c for c in ranking if c is not form}
+    assert_allclose(by[joint.effect].probability, p * plain["tanker_wake"], rtol=1e-12)
+    assert_allclose(by["tanker_wake"].probability, (1 - p) * plain["tanker_wake"], rtol=1e-12)
+    assert_allclose(form.probability, plain["form"], rtol=1e-12)
     assert_allclose(by["turbulence"].probability, p * plain["none"], rtol=1e-12)
     assert_allclose(sum(c.probability for c in ranking), 1.0, rtol=1e-12)
 

@@ -182,19 +182,25 @@ def random_presence(estimate) -> float:
     return 0.5 * math.erfc(-z / math.sqrt(2.0))
 
 
+def _form(c: Candidate) -> tuple:
+    """`c`'s deterministic effects with the names of their fitted parameters."""
+    return tuple((e, tuple(sorted(c.params.get(e, {})))) for e in c.effects if e != "turbulence")
+
+
 def with_random_share(ranking: list, weights: dict, presence: float) -> None:
     """Set every candidate's probability from `weights` ({id: Akaike weight}
     of the deterministic candidates, summing to 1): a candidate with
     turbulence takes `presence` of its deterministic set's weight (found in
-    `ranking` by its effects; "none" for turbulence alone), which keeps the
+    `ranking` by its effects and parameters; "none" for turbulence alone), which keeps the
     rest; one whose deterministic set is not ranked gets 0."""
-    # the first ranked of a set (the selected one, where a refinement of its form fitted it twice)
-    by_set = {tuple(c.effects): c for c in reversed(ranking) if "turbulence" not in c.effects}
+    # a set is its effects and their fitted parameters: a refinement of its form
+    # (`select._refine`) fits the same effects with one parameter more
+    by_set = {_form(c): c for c in ranking if "turbulence" not in c.effects}
     for c in ranking:
         c.probability = weights.get(id(c), 0.0)
     for c in ranking:
         if "turbulence" in c.effects:
-            d = by_set.get(tuple(e for e in c.effects if e != "turbulence"))
+            d = by_set.get(_form(c))
             w = weights.get(id(d), 0.0) if d is not None else 0.0
             c.probability = w * presence
             if d is not None:
