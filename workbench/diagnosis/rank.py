@@ -307,7 +307,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # bow wave in the seconds before contact) spans a few per cent of a baseline
     # dominated by a steady offset, yet may be all that is left once that is explained
     pool = order
-    sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say, refinable=refinable(case))
+    forms = refinable(case)
+    sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say, refinable=forms)
     # turbulence from its statistics, its random motion measured about the selected set's time runs
     turb = random_candidate(paths, base, sel.chosen, setup, mapper)
     chance = within_chance(sel, turb, floor)
@@ -318,7 +319,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         say(f"{', '.join(chance)} within what turbulence of {turb.estimate.sigma_mps:.2f} m/s explains by chance "
             f"along its pattern: selecting again, each step against the noise floor and that")
         sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say,
-                             chance=turb.chance_offset, refinable=refinable(case))
+                             chance=turb.chance_offset, refinable=forms)
         sel.stopped += (f" (each step against the noise floor and what the random motion explains by chance "
                         f"along its pattern: {', '.join(chance)} had been accepted within it)")
         turb = random_candidate(paths, base, sel.chosen, setup, mapper)

@@ -376,9 +376,9 @@ def _refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitte
         c.why_not_first = f"step {k}: refining {what} refused, it {refused}"
         say(f"step {k}: refining {what} refused")
         return chosen, setup
-    shares = dict(chosen.shares or {})
-    for e in {e for e, _ in pairs}:
-        shares[e] = shares.get(e, 0.0) + (steps[-1]["share"] or 0.0) / len({e for e, _ in pairs})
+    shares, effects = dict(chosen.shares or {}), {e for e, _ in pairs}
+    for e in effects:
+        shares[e] = shares.get(e, 0.0) + (steps[-1]["share"] or 0.0) / len(effects)
     c.shares = shares
     chosen.why_not_first = f"step {k}: {what} refined, held-out gap {c.gap_after_heldout:.3f} m"
     say(f"step {k}: {what} refined, held-out gap {c.gap_after_heldout:.3f} m")
