@@ -272,6 +272,63 @@ def test_summary_counts_top1_recall_and_confusion():
     assert s["probability_of"] == "the events named" and s["brier_top"] == 0.0
 
 
+def test_a_fit_of_the_true_set_starts_at_the_truth_model_s_own_values():
+    truth = {"params": {"drogue_lift": {"scale": 1.8}, "steady_wind": {"vertical_mps": 2.0, "lateral_mps": -1.0}},
+             "form": {"drogue_cl_factor": 0.9, "drogue_cd_factor": 1.06, "EI_factor": 1.1}}
+    w = campaign.truth_start(truth, ["drogue_lift", "drogue_drag", "steady_wind"],
+                             {"drogue_reference": {"offset_m": 0.1}})
+    # the drawn lift on the scattered coefficient: the truth model scales the scattered value
+    assert_allclose(w["drogue_lift"]["scale"], 1.8 * 0.9, rtol=1e-12)
+    # a calibration of scattered hardware with no event drawn: the scatter alone
+    assert_allclose(w["drogue_drag"]["scale"], 1.06, rtol=1e-12)
+    assert w["steady_wind"] == {"vertical_mps": 2.0, "lateral_mps": -1.0}
+    assert w["drogue_reference"] == {"offset_m": 0.1}
+    # clipped to the search range the fit works in
+    hi = EFFECTS["drogue_lift"].params["scale"].search[1]
+    w = campaign.truth_start({"params": {"drogue_lift": {"scale": 2.9}}, "form": {"drogue_cl_factor": 1.2}},
+                             ["drogue_lift"], {})
+    assert w["drogue_lift"]["scale"] == hi
+
+
+def test_a_missed_log_is_told_apart_by_the_true_set_s_own_fit(tmp_path):
+    # a lift of 0.0-0.5 or 1.6-2.4 x on a trail (decimetres, far above the noise):
+    # against a top explanation that explains nothing, the true set fitted from
+    # its own values explains the log better, held out, by more than the noise,
+    # at a lift within a quarter of the truth model's (the form takes the rest)
+    from types import SimpleNamespace
+    path, truth = generate("trail", ["drogue_lift"], 11, tmp_path)
+    setup = Setup()
+    base = evaluate(str(path), {}, setup)
+    none = Candidate("none", [], 0, params={}, gap_after_heldout=gap(base.r), calibrations={})
+    d = SimpleNamespace(ranking=[none], noise_floor=gap(base.floor),
+                        not_applicable={"turbulence": "random", "hose_stiffness": "a trail hangs on tension"})
+    fit = campaign.truth_fit(path, truth, {"drogue_lift"}, d, setup)
+    assert fit["set"] == "drogue_lift" and fit["better"]
+    assert_allclose(fit["params"]["drogue_lift"]["scale"],
+                    truth["params"]["drogue_lift"]["scale"] * truth["form"]["drogue_cl_factor"], rtol=0.25)
+    assert fit["gap_heldout"] < none.gap_after_heldout - d.noise_floor
+    # the top's calibrations within a data sheet's tolerance stay: the two differ in their events
+    cal = Candidate("drogue_drag", ["drogue_drag"], 1, params={"drogue_drag": {"scale": 1.05}},
+                    gap_after_heldout=gap(base.r), calibrations={"drogue_drag": "within its tolerance"})
+    fit = campaign.truth_fit(path, truth, {"drogue_lift"}, SimpleNamespace(**{**vars(d), "ranking": [cal]}), setup)
+    assert fit["set"] == "drogue_lift+drogue_drag"
+    # nothing the diagnosis could rank (a random motion only): no fit
+    assert campaign.truth_fit(path, truth, {"turbulence"}, d, setup) is None
+
+
+def test_misses_are_counted_by_what_the_true_set_s_fit_says():
+    row = dict(kind="trail", effects=["drogue_lift"], truth="drogue_lift", top="drogue_lift", correct=True,
+               recall=1.0, nameable=True, shrink_heldout=0.8, generate_s=1.0, diagnose_s=1.0, detectable=True)
+    rows = [row, dict(row, correct=False, truth_fit={"gap_heldout": 0.01, "better": True}),
+            dict(row, correct=False, truth_fit={"gap_heldout": 0.03, "better": False}),
+            dict(row, correct=False, truth_fit=None), dict(row, correct=False)]
+    s = campaign.summarise(rows, "single")
+    assert (s["n_missed_truth_better"], s["n_missed_truth_no_better"], s["n_missed_truth_unfitted"]) == (1, 1, 2)
+    # where the logs prefer the truth: one hit, one miss
+    assert s["top1_truth_preferred"] == 0.5
+    assert "1 where the true set" in campaign.text({**s, "wall_s": 1.0, "generate_failed": []})
+
+
 def test_the_proving_ground_does_not_write_into_the_committed_reports(tmp_path):
     from workbench.cli.main import cli
     r = CliRunner().invoke(cli, ["diagnose", "--selftest", "--proving-ground", "independent",

@@ -22,6 +22,15 @@ Where that scatter falls beyond the data sheet's tolerance (the registry's
 `Param.tolerance`: a drogue C_L drawn up to 30 % off against its 25 %), the
 hardware is off its data sheet, and that is an effect of the flight: the
 true set holds it (`off_sheet`), to be named like a withheld one.
+
+A miss is also told apart by what the logs could say (`truth_fit`): the true
+set itself (its deterministic events the diagnosis can rank, with the top's
+model-form effects) fitted from the values the generator drew and scored
+held out like any candidate. Where it explains the log better than the top
+explanation by more than the noise floor, the selection missed a better
+explanation; where it does not, the logs do not prefer the truth under the
+model's form (the form differences or a near-parallel effect take its
+place), and no rule of the selection could have named it.
 """
 from __future__ import annotations
 
@@ -41,10 +50,12 @@ from solver.chain import DivergenceError
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.explanation import events_of, within_tolerance
+from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.rank import diagnose_family
+from workbench.diagnosis.select import score_candidate
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
-from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup
+from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup, calibrated_params
 from workbench.proving.generate import KIND_EFFECTS, generate
 from workbench.simlog import result_to_record
 
@@ -115,6 +126,45 @@ def signature(path: Path, reference) -> dict:
             "signature_floor_m": floor, "detectable": bool(g > NOISE_FACTOR * floor)}
 
 
+def truth_start(truth: dict, events: list, model_form: dict) -> dict:
+    """{effect: {param: value}} a fit of the true set starts from: each
+    calibrated parameter of `events` (and of the scattered hardware's
+    calibrations among them) at the generator's draw times the hardware's
+    scatter on the same factor (`SCATTER`: the truth model scales the
+    scattered value), its off value where neither touches it, clipped to the
+    search range; the model-form effects at `model_form`'s values."""
+    factor = {eff_name: truth["form"][key] for key, eff_name in SCATTER.items() if key in truth.get("form", {})}
+    out = {}
+    for e, name, p in calibrated_params(tuple(events)):
+        v = float(truth["params"].get(e, {}).get(name, p.off)) * factor.get((e, name), 1.0)
+        out.setdefault(e, {})[name] = min(max(v, p.search[0]), p.search[1])
+    return {**out, **{e: dict(v) for e, v in model_form.items()}}
+
+
+def truth_fit(path: Path, truth: dict, true: set, d, setup: Setup) -> dict | None:
+    """The true set's own fit on the log at `path` (the module's note): its
+    deterministic events the diagnosis `d` ranks (none it could not: a random
+    motion, an effect not applicable) in place of the top explanation's, which
+    keeps its calibrations within a data sheet's tolerance (no events, but
+    what the scattered hardware needs: the top's terms, so that the two
+    differ in their events only) and its model-form effects; started at the
+    truth (`truth_start`) and scored held out on the diagnosis's folds. None
+    when no such event is left."""
+    events = sorted(e for e in true if e not in d.not_applicable)
+    if not events:
+        return None
+    top = d.ranking[0]
+    model_form = {e: top.params.get(e, {}) for e in top.effects if EFFECTS[e].model_form}
+    cals = sorted(set(top.calibrations or {}) - set(events))
+    effects = ordered(events + cals + list(model_form))
+    w = truth_start(truth, events + cals, model_form)
+    c = score_candidate(([str(path)], effects, setup, {"folds": [w, w], "all": w}))
+    if not c.success:
+        return {"set": c.effect, "failed": c.message}
+    return {"set": c.effect, "params": c.params, "gap_heldout": c.gap_after_heldout,
+            "better": bool(c.gap_after_heldout < top.gap_after_heldout - d.noise_floor)}
+
+
 def run_one(job) -> dict:
     """Generate one log and diagnose it blind (runs in a worker)."""
     kind, effects, seed, out_dir, n_elements = job
@@ -138,6 +188,10 @@ def run_one(job) -> dict:
     top = d.ranking[0]
     named = top.named
     unnameable = sorted(e for e in true if e in d.not_applicable)
+    # a miss: could the logs have said so? (the true set's own fit; a hit needs none)
+    t_fit = time.perf_counter()
+    oracle = None if set(named) == true else truth_fit(path, truth, true, d, Setup(n_elements))
+    t_fit = time.perf_counter() - t_fit
     return {**truth, "log": path.name, "truth": "+".join(sorted(true)), "top": "+".join(sorted(named)) or "none",
             "top_explanation": top.effect, "top_effects": list(top.effects), "top_params": top.params,
             "top_calibrations": top.calibrations, "top_probability": top.probability,
@@ -148,7 +202,8 @@ def run_one(job) -> dict:
             "nameable": not unnameable, "unnameable": unnameable,
             "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
             "shrink_heldout": top.shrink_heldout, "noise_floor": d.noise_floor,
-            "ranking": [c.effect for c in d.ranking], "generate_s": t_gen, "diagnose_s": d.wall_s}
+            "ranking": [c.effect for c in d.ranking], "truth_fit": oracle, "truth_fit_s": t_fit,
+            "generate_s": t_gen, "diagnose_s": d.wall_s}
 
 
 def _reliability(rows: list) -> dict:
@@ -173,6 +228,22 @@ def _reliability(rows: list) -> dict:
             "brier_constant": rate * (1.0 - rate)}
 
 
+def _missed(rows: list) -> dict:
+    """The misses by what the true set's own fit (`truth_fit`) says: the
+    truth explains the log better held out by more than the noise floor
+    (the selection missed it), or not (the logs do not prefer it), or no fit
+    (no deterministic event it could rank, a fit that failed, a row written
+    before the fit was recorded); the top-1 rate where the logs prefer the
+    truth (hits over hits and the misses of the first kind)."""
+    missed = [r.get("truth_fit") for r in rows if not r["correct"]]
+    better = sum(bool(f and f.get("better")) for f in missed)
+    no_better = sum(bool(f and "better" in f and not f["better"]) for f in missed)
+    hits = len(rows) - len(missed)
+    return {"n_missed_truth_better": better, "n_missed_truth_no_better": no_better,
+            "n_missed_truth_unfitted": len(missed) - better - no_better,
+            "top1_truth_preferred": hits / (hits + better) if hits + better else None}
+
+
 def _figures(rows: list) -> dict:
     if not rows:
         return {"n": 0}
@@ -186,7 +257,8 @@ def _figures(rows: list) -> dict:
             "top1_nameable": float(np.mean([r["correct"] for r in nameable])) if nameable else None,
             "n_detectable": len(seen),
             "top1_detectable": float(np.mean([r["correct"] for r in seen])) if seen else None,
-            "recall_detectable": float(np.mean([r["recall"] for r in seen])) if seen else None}
+            "recall_detectable": float(np.mean([r["recall"] for r in seen])) if seen else None,
+            **_missed(rows)}
 
 
 def summarise(rows: list, family: str) -> dict:
@@ -242,11 +314,20 @@ def text(r: dict) -> str:
              + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")
              + (f"; the diagnosis's baseline failed on {r['n_diagnose_failed']} (counted as misses)"
                 if r.get("n_diagnose_failed") else "")]
+    if "n_missed_truth_better" in r:
+        lines.append(f"  misses: {r['n_missed_truth_better']} where the true set, fitted from its own values, "
+                     f"explains the log better held out by more than the noise floor (the selection missed it); "
+                     f"{r['n_missed_truth_no_better']} where it does not (the logs do not prefer it under the "
+                     f"model's form); {r['n_missed_truth_unfitted']} with no fit of it (nothing it could rank, "
+                     f"or the fit failed); top-1 where the logs prefer the truth "
+                     f"{_pct(r['top1_truth_preferred'])}")
     for title, part in (("kind", r["by_kind"]), ("effect", r["by_effect"])):
         for k, v in part.items():
             lines.append(f"  {title} {k}: n {v['n']}, top-1 {_pct(v['top1'])}, recall {_pct(v['recall'])}, "
                          f"median shrink {_pct(v['median_shrink'])}; above their noise {v['n_detectable']}, "
-                         f"top-1 {_pct(v['top1_detectable'])}")
+                         f"top-1 {_pct(v['top1_detectable'])}"
+                         + (f"; misses the truth fits better {v['n_missed_truth_better']}, not better "
+                            f"{v['n_missed_truth_no_better']}" if "n_missed_truth_better" in v else ""))
     lines.append("confusion (true set -> top explanation: count):")
     for truth, row in sorted(r["confusion"].items()):
         lines.append(f"  {truth} -> " + ", ".join(f"{k}: {v}" for k, v in sorted(row.items())))
