@@ -312,7 +312,10 @@ def test_a_missed_log_is_told_apart_by_the_true_set_s_own_fit(tmp_path):
                     gap_after_heldout=gap(base.r), calibrations={"drogue_drag": "within its tolerance"})
     fit = campaign.truth_fit(path, truth, {"drogue_lift"}, SimpleNamespace(**{**vars(d), "ranking": [cal]}), setup)
     assert fit["set"] == "drogue_lift+drogue_drag"
-    # nothing the diagnosis could rank (a random motion only): no fit
+    # a random motion is no time history to fit (and the diagnosis ranks it from its
+    # statistics, not as not applicable): left out of the set; alone, no fit
+    assert campaign.truth_fit(path, truth, {"drogue_lift", "turbulence"}, SimpleNamespace(
+        **{**vars(d), "not_applicable": {}}), setup)["set"] == "drogue_lift"
     assert campaign.truth_fit(path, truth, {"turbulence"}, d, setup) is None
 
 

@@ -143,14 +143,15 @@ def truth_start(truth: dict, events: list, model_form: dict) -> dict:
 
 def truth_fit(path: Path, truth: dict, true: set, d, setup: Setup) -> dict | None:
     """The true set's own fit on the log at `path` (the module's note): its
-    deterministic events the diagnosis `d` ranks (none it could not: a random
-    motion, an effect not applicable) in place of the top explanation's, which
+    deterministic events the diagnosis `d` ranks (none it could not: an
+    effect not applicable, or one with nothing to fit to a time history, a
+    random motion, `Effect.not_calibrated`) in place of the top explanation's, which
     keeps its calibrations within a data sheet's tolerance (no events, but
     what the scattered hardware needs: the top's terms, so that the two
     differ in their events only) and its model-form effects; started at the
     truth (`truth_start`) and scored held out on the diagnosis's folds. None
     when no such event is left."""
-    events = sorted(e for e in true if e not in d.not_applicable)
+    events = sorted(e for e in true if e not in d.not_applicable and not EFFECTS[e].not_calibrated)
     if not events:
         return None
     top = d.ranking[0]
