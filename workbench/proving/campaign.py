@@ -24,13 +24,14 @@ hardware is off its data sheet, and that is an effect of the flight: the
 true set holds it (`off_sheet`), to be named like a withheld one.
 
 A miss is also told apart by what the logs could say (`truth_fit`): the true
-set itself (its deterministic events the diagnosis can rank, with the top's
-model-form effects) fitted from the values the generator drew and scored
-held out like any candidate. Where it explains the log better than the top
-explanation by more than the noise floor, the selection missed a better
-explanation; where it does not, the logs do not prefer the truth under the
-model's form (the form differences or a near-parallel effect take its
-place), and no rule of the selection could have named it.
+model in the diagnosis's terms (the true events it can fit, the scattered
+hardware's calibrations, the top's calibrations and model form) fitted from
+the values the generator drew and scored held out like any candidate. Where
+it explains the log better than the top explanation by more than the noise
+floor, the selection missed a better explanation; where it does not, the
+logs do not prefer the truth under the model's form (the form differences or
+a near-parallel effect take its place), and no rule of the selection could
+have named it. `rescore` does it again on a campaign's kept logs.
 """
 from __future__ import annotations
 
@@ -55,7 +56,8 @@ from workbench.diagnosis.rank import diagnose_family
 from workbench.diagnosis.select import score_candidate
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
-from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup, calibrated_params
+from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup, applicable, calibrated_params
 from workbench.proving.generate import KIND_EFFECTS, generate
 from workbench.simlog import result_to_record
 
@@ -141,29 +143,55 @@ def truth_start(truth: dict, events: list, model_form: dict) -> dict:
     return {**out, **{e: dict(v) for e, v in model_form.items()}}
 
 
-def truth_fit(path: Path, truth: dict, true: set, d, setup: Setup) -> dict | None:
-    """The true set's own fit on the log at `path` (the module's note): its
-    deterministic events the diagnosis `d` ranks (none it could not: an
-    effect not applicable, or one with nothing to fit to a time history, a
-    random motion, `Effect.not_calibrated`) in place of the top explanation's, which
-    keeps its calibrations within a data sheet's tolerance (no events, but
-    what the scattered hardware needs: the top's terms, so that the two
-    differ in their events only) and its model-form effects; started at the
-    truth (`truth_start`) and scored held out on the diagnosis's folds. None
-    when no such event is left."""
-    events = sorted(e for e in true if e not in d.not_applicable and not EFFECTS[e].not_calibrated)
+def truth_fit(path: Path, truth: dict, true: set, top: Candidate, floor: float, setup: Setup) -> dict | None:
+    """The true set's own fit on the log at `path` (the module's note): the
+    true events the diagnosis can fit to this log (`setup.applicable`: none
+    with nothing to fit to a time history, a random motion, nor one not
+    applicable to the kind) in place of the `top` explanation's events, with
+    the calibrations of the hardware the generator scattered (`SCATTER`, any
+    the kind is sensitive to: no events, but the truth model has them) and
+    the top's own calibrations and model-form effects; started at the truth
+    (`truth_start`), scored held out on the diagnosis's folds, and `better`
+    when its held-out gap is below the top's by more than the noise
+    `floor`. None when no such event is left."""
+    rec = read_record(path)
+    kind, case = rec.info.test_kind, setup.case_for(rec)
+    events = sorted(e for e in true if not applicable(e, kind, case, rec))
     if not events:
         return None
-    top = d.ranking[0]
     model_form = {e: top.params.get(e, {}) for e in top.effects if EFFECTS[e].model_form}
-    cals = sorted(set(top.calibrations or {}) - set(events))
+    cals = sorted(({e for e, _ in SCATTER.values() if not applicable(e, kind, case, rec)}
+                   | set(top.calibrations or {})) - set(events))
     effects = ordered(events + cals + list(model_form))
     w = truth_start(truth, events + cals, model_form)
     c = score_candidate(([str(path)], effects, setup, {"folds": [w, w], "all": w}))
     if not c.success:
         return {"set": c.effect, "failed": c.message}
     return {"set": c.effect, "params": c.params, "gap_heldout": c.gap_after_heldout,
-            "better": bool(c.gap_after_heldout < top.gap_after_heldout - d.noise_floor)}
+            "better": bool(c.gap_after_heldout < top.gap_after_heldout - floor)}
+
+
+def rescore(r: dict, workers: int | None = None) -> dict:
+    """The campaign `r` (a `run_campaign` result, as read back from
+    proving-<family>.json) with every miss's true-set fit (`truth_fit`) done
+    again on its kept logs (`logs_dir`) from what its rows recorded, and its
+    figures summed again; the diagnoses themselves are not re-run."""
+    misses = [row for row in r["rows"] if not row["correct"] and "diagnose_failed" not in row]
+    jobs = [(Path(r["logs_dir"]) / row["log"], row, r["n_elements_diagnosis"]) for row in misses]
+    with Mapper(workers) as mapper:
+        fits = mapper(_refit, jobs)
+    for row, fit in zip(misses, fits):
+        row["truth_fit"] = fit
+    keep = {k: r[k] for k in ("generate_failed", "generator", "seed", "n_elements_diagnosis", "wall_s", "logs_dir",
+                              "rows")}
+    return {**summarise(r["rows"], r["family"]), **keep}
+
+
+def _refit(job):
+    path, row, n_elements = job
+    top = Candidate(row["top_explanation"], list(row["top_effects"]), 0, params=row["top_params"],
+                    gap_after_heldout=row["gap_after_heldout"], calibrations=row["top_calibrations"])
+    return truth_fit(path, row, set(row["truth"].split("+")), top, row["noise_floor"], Setup(n_elements))
 
 
 def run_one(job) -> dict:
@@ -191,7 +219,7 @@ def run_one(job) -> dict:
     unnameable = sorted(e for e in true if e in d.not_applicable)
     # a miss: could the logs have said so? (the true set's own fit; a hit needs none)
     t_fit = time.perf_counter()
-    oracle = None if set(named) == true else truth_fit(path, truth, true, d, Setup(n_elements))
+    oracle = None if set(named) == true else truth_fit(path, truth, true, top, d.noise_floor, Setup(n_elements))
     t_fit = time.perf_counter() - t_fit
     return {**truth, "log": path.name, "truth": "+".join(sorted(true)), "top": "+".join(sorted(named)) or "none",
             "top_explanation": top.effect, "top_effects": list(top.effects), "top_params": top.params,
