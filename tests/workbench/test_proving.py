@@ -312,6 +312,13 @@ def test_a_missed_log_is_told_apart_by_the_true_set_s_own_fit(tmp_path):
                     gap_after_heldout=gap(base.r), calibrations={"hose_drag": "within its tolerance"})
     assert campaign.truth_fit(path, truth, {"drogue_lift"}, cal, floor, setup)["set"] == \
         "drogue_lift+drogue_drag+hose_drag"
+    # a top holding a random motion is compared by its deterministic set (here none: the
+    # baseline), not by the random motion's statistical gap
+    turb = Candidate("turbulence", ["turbulence"], 1, params={"turbulence": {"sigma_mps": 1.0}},
+                     gap_after_heldout=1e-6, calibrations={})
+    fit = campaign.truth_fit(path, truth, {"drogue_lift"}, turb, floor, setup)
+    assert_allclose(fit["top_gap_heldout"], none.gap_after_heldout, rtol=1e-12)
+    assert fit["better"]
     # a random motion is no time history to fit: left out of the set; alone, no fit
     assert campaign.truth_fit(path, truth, {"drogue_lift", "turbulence"}, none, floor, setup)["set"] == \
         "drogue_lift+drogue_drag"

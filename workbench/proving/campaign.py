@@ -49,7 +49,7 @@ from flighttest import read_record
 from flighttest.residual import residual
 from solver.chain import DivergenceError
 from solver.effects import EFFECTS
-from workbench.diagnosis.evaluate import gap
+from workbench.diagnosis.evaluate import evaluate, gap
 from workbench.diagnosis.explanation import events_of, within_tolerance
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.rank import diagnose_family
@@ -153,7 +153,10 @@ def truth_fit(path: Path, truth: dict, true: set, top: Candidate, floor: float, 
     the top's own calibrations and model-form effects; started at the truth
     (`truth_start`), scored held out on the diagnosis's folds, and `better`
     when its held-out gap is below the top's by more than the noise
-    `floor`. None when no such event is left."""
+    `floor`. A top that holds a random motion is compared by its
+    deterministic set, refitted from the top's values (a random motion's
+    gap is its statistics', no like-for-like evidence: `rank`). None when no
+    such event is left."""
     rec = read_record(path)
     kind, case = rec.info.test_kind, setup.case_for(rec)
     events = sorted(e for e in true if not applicable(e, kind, case, rec))
@@ -167,8 +170,14 @@ def truth_fit(path: Path, truth: dict, true: set, top: Candidate, floor: float, 
     c = score_candidate(([str(path)], effects, setup, {"folds": [w, w], "all": w}))
     if not c.success:
         return {"set": c.effect, "failed": c.message}
-    return {"set": c.effect, "params": c.params, "gap_heldout": c.gap_after_heldout,
-            "better": bool(c.gap_after_heldout < top.gap_after_heldout - floor)}
+    det = ordered(e for e in top.effects if not EFFECTS[e].not_calibrated)
+    against = top.gap_after_heldout
+    if len(det) < len(top.effects):
+        p = {e: top.params.get(e, {}) for e in det}
+        against = score_candidate(([str(path)], det, setup, {"folds": [p, p], "all": p})).gap_after_heldout \
+            if det else gap(evaluate(str(path), {}, setup).r)
+    return {"set": c.effect, "params": c.params, "gap_heldout": c.gap_after_heldout, "top_gap_heldout": against,
+            "better": bool(c.gap_after_heldout < against - floor)}
 
 
 def rescore(r: dict, workers: int | None = None) -> dict:
