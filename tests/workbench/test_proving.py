@@ -337,6 +337,7 @@ def test_a_campaign_s_misses_are_fitted_again_from_its_rows(tmp_path):
          "generate_failed": [], "generator": "independent", "seed": 11, "wall_s": 1.0}
     out = campaign.rescore(r, workers=1)
     assert out["rows"][0]["truth_fit"]["better"] and out["n_missed_truth_better"] == 1
+    assert r["rows"][0]["truth_fit"] is None   # the campaign read in is left as it was
     assert out["top1_truth_preferred"] == 0.0 and out["logs_dir"] == str(tmp_path)
 
 

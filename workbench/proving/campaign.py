@@ -174,8 +174,10 @@ def truth_fit(path: Path, truth: dict, true: set, top: Candidate, floor: float, 
     against = top.gap_after_heldout
     if len(det) < len(top.effects):
         p = {e: top.params.get(e, {}) for e in det}
-        against = score_candidate(([str(path)], det, setup, {"folds": [p, p], "all": p})).gap_after_heldout \
-            if det else gap(evaluate(str(path), {}, setup).r)
+        refit = score_candidate(([str(path)], det, setup, {"folds": [p, p], "all": p})) if det else None
+        # a refit that fails to simulate (it did not in the diagnosis) leaves the top's own gap
+        against = (gap(evaluate(str(path), {}, setup).r) if refit is None
+                   else refit.gap_after_heldout if refit.success else against)
     return {"set": c.effect, "params": c.params, "gap_heldout": c.gap_after_heldout, "top_gap_heldout": against,
             "better": bool(c.gap_after_heldout < against - floor)}
 
@@ -185,15 +187,15 @@ def rescore(r: dict, workers: int | None = None) -> dict:
     proving-<family>.json) with every miss's true-set fit (`truth_fit`) done
     again on its kept logs (`logs_dir`) from what its rows recorded, and its
     figures summed again; the diagnoses themselves are not re-run."""
-    misses = [row for row in r["rows"] if not row["correct"] and "diagnose_failed" not in row]
+    rows = [dict(row) for row in r["rows"]]
+    misses = [row for row in rows if not row["correct"] and "diagnose_failed" not in row]
     jobs = [(Path(r["logs_dir"]) / row["log"], row, r["n_elements_diagnosis"]) for row in misses]
     with Mapper(workers) as mapper:
         fits = mapper(_refit, jobs)
     for row, fit in zip(misses, fits):
         row["truth_fit"] = fit
-    keep = {k: r[k] for k in ("generate_failed", "generator", "seed", "n_elements_diagnosis", "wall_s", "logs_dir",
-                              "rows")}
-    return {**summarise(r["rows"], r["family"]), **keep}
+    keep = {k: r[k] for k in ("generate_failed", "generator", "seed", "n_elements_diagnosis", "wall_s", "logs_dir")}
+    return {**summarise(rows, r["family"]), **keep, "rows": rows}
 
 
 def _refit(job):
