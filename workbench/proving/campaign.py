@@ -49,7 +49,7 @@ from flighttest import read_record
 from flighttest.residual import residual
 from solver.chain import DivergenceError
 from solver.effects import EFFECTS
-from workbench.diagnosis.evaluate import evaluate, gap
+from workbench.diagnosis.evaluate import evaluate, gap, record
 from workbench.diagnosis.explanation import events_of, within_tolerance
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.rank import diagnose_family
@@ -157,7 +157,7 @@ def truth_fit(path: Path, truth: dict, true: set, top: Candidate, floor: float, 
     deterministic set, refitted from the top's values (a random motion's
     gap is its statistics', no like-for-like evidence: `rank`). None when no
     such event is left."""
-    rec = read_record(path)
+    rec = record(str(path))   # read once per worker: the diagnosis read it just before
     kind, case = rec.info.test_kind, setup.case_for(rec)
     events = sorted(e for e in true if not applicable(e, kind, case, rec))
     if not events:
