@@ -23,7 +23,8 @@ from workbench.diagnosis.rank import plausible_first, probabilities
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup, one_log_event
 from workbench.proving import campaign
-from workbench.proving.generate import DRAWS, KIND_EFFECTS, TRACKER_HZ, generate
+from workbench.proving.generate import (DRAWS, KIND_EFFECTS, MAGNITUDE, SUBTLE_MIN_TOLERANCES, SUBTLE_SHARE,
+                                        TRACKER_HZ, generate, shrink)
 from workbench.proving.physics import LossFactorHose
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -155,6 +156,84 @@ def test_every_library_effect_is_drawn_at_least_three_times_in_the_single_family
     assert all(len(effs) == 1 and effs[0] in KIND_EFFECTS[k] for k, effs, _ in single)
     multi = campaign.plan(12, "multi", 7)
     assert all(2 <= len(set(effs)) <= 3 and set(effs) <= set(KIND_EFFECTS[k]) for k, effs, _ in multi)
+
+
+@pytest.mark.parametrize("share", [SUBTLE_SHARE[0], 0.3, SUBTLE_SHARE[1]])
+def test_a_subtle_draw_is_the_draw_brought_nearer_its_off_value_and_stays_an_event(share):
+    rng = np.random.default_rng(5)
+    for name, draw in DRAWS.items():
+        for _ in range(20):
+            p = draw(rng, 30.0)
+            q = shrink(name, p, share)
+            # its shape, time and seed as drawn
+            assert {k: v for k, v in q.items() if k not in MAGNITUDE[name]} == \
+                {k: v for k, v in p.items() if k not in MAGNITUDE[name]}
+            for k in MAGNITUDE[name]:
+                par = EFFECTS[name].params[k]
+                d, e = p[k] - par.off, q[k] - par.off
+                assert np.sign(e) == np.sign(d) and abs(e) <= abs(d) + 1e-12, (name, k)
+                if par.tolerance is None:
+                    assert_allclose(e, share * d, rtol=1e-12)
+                else:
+                    # a factor off its sheet by at least 1.5 tolerances: no calibration of the sheet's value
+                    assert abs(e) >= SUBTLE_MIN_TOLERANCES * par.tolerance * abs(par.off) - 1e-12
+                    assert_allclose(abs(e), max(share * abs(d), SUBTLE_MIN_TOLERANCES * par.tolerance * abs(par.off)),
+                                    rtol=1e-12)
+                assert par.check(q[k]) is None and (not par.search or par.search[0] <= q[k] <= par.search[1])
+
+
+def test_a_subtle_log_carries_the_same_draw_shrunk(tmp_path):
+    # a steady trail: the truth model's static solve only
+    (tmp_path / "plain").mkdir()
+    (tmp_path / "subtle").mkdir()
+    _, plain = generate("trail", ["drogue_drag"], 17, tmp_path / "plain")
+    _, subtle = generate("trail", ["drogue_drag"], 17, tmp_path / "subtle", subtle=True)
+    assert plain["share"] == 1.0 and SUBTLE_SHARE[0] <= subtle["share"] <= SUBTLE_SHARE[1]
+    assert subtle["params"]["drogue_drag"] == shrink("drogue_drag", plain["params"]["drogue_drag"], subtle["share"])
+    assert subtle["form"] == plain["form"]
+
+
+def test_the_null_and_subtle_families_plan_their_logs():
+    null = campaign.plan(7, "null", 3)
+    assert [k for k, _, _ in null] == [list(KIND_EFFECTS)[i % 3] for i in range(7)]
+    assert all(effs == () for _, effs, _ in null)
+    subtle, single = campaign.plan(48, "subtle", 3), campaign.plan(48, "single", 3)
+    counts = Counter(e for _, effs, _ in subtle for e in effs)
+    assert min(counts.values()) >= campaign.MIN_EACH and len(counts) == len(DRAWS)
+    # drawn apart from the one-effect family
+    assert [s for *_, s in subtle] != [s for *_, s in single]
+
+
+def test_an_explanation_claims_its_events_beyond_their_data_sheets_tolerance():
+    from workbench.diagnosis.explanation import explain
+    params = {"drogue_lift": {"scale": 1.12}, "drogue_drag": {"scale": 0.94}, "steady_wind": {"vertical_mps": 2.0,
+                                                                                              "lateral_mps": 0.0}}
+    alone = Candidate("drogue_lift+drogue_drag", ["drogue_lift", "drogue_drag"], 2, params=params)
+    alone.named, alone.calibrations = explain(alone.effects, alone.params)
+    # the diagnosis names calibrations left alone, within the sheet's spread: no event of the flight
+    assert set(alone.named) == {"drogue_lift", "drogue_drag"} and campaign.events(alone) == frozenset()
+    beside = Candidate("x", ["drogue_lift", "steady_wind"], 3, params=params)
+    beside.named, beside.calibrations = explain(beside.effects, beside.params)
+    assert campaign.events(beside) == {"steady_wind"}
+    off = Candidate("x", ["drogue_lift"], 1, params={"drogue_lift": {"scale": 0.6}})
+    off.named, off.calibrations = explain(off.effects, off.params)
+    assert campaign.events(off) == {"drogue_lift"}
+
+
+def test_a_null_log_scores_what_it_names_as_a_false_alarm():
+    row = dict(kind="trail", effects=[], truth="none", top="none", correct=True, recall=None, nameable=True,
+               shrink_heldout=0.0, generate_s=1.0, diagnose_s=1.0, detectable=False)
+    rows = [row, dict(row, top="steady_wind", correct=False), dict(row, top="none")]
+    s = campaign.summarise(rows, "null")
+    assert s["n_no_event"] == 3
+    assert_allclose([s["no_event_named_none"], s["top1"]], [2 / 3, 2 / 3], rtol=1e-12)
+    # nothing withheld, nothing to recall: no recall is made up
+    assert s["recall"] is None and campaign._recall(set(), {"steady_wind"}) is None
+    assert s["confusion"] == {"none": {"none": 2, "steady_wind": 1}}
+    assert "false alarms 33 %" in campaign.text({**s, "wall_s": 1.0, "generate_failed": []})
+    # a log with a withheld event beside them: the recall is its own
+    one = dict(row, effects=["steady_wind"], truth="steady_wind", top="steady_wind", recall=1.0)
+    assert campaign.summarise(rows + [one], "null")["recall"] == 1.0
 
 
 def test_hardware_scattered_beyond_its_data_sheet_is_in_the_true_set():
@@ -323,6 +402,8 @@ def test_a_missed_log_is_told_apart_by_the_true_set_s_own_fit(tmp_path):
     assert campaign.truth_fit(path, truth, {"drogue_lift", "turbulence"}, none, floor, setup)["set"] == \
         "drogue_lift+drogue_drag"
     assert campaign.truth_fit(path, truth, {"turbulence"}, none, floor, setup) is None
+    # no event withheld (a null log): the truth is the scattered hardware's calibrations
+    assert campaign.truth_fit(path, truth, set(), none, floor, setup)["set"] == "drogue_lift+drogue_drag"
 
 
 def test_a_campaign_s_misses_are_fitted_again_from_its_rows(tmp_path):

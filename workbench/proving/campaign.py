@@ -1,6 +1,10 @@
 """`workbench diagnose --selftest --proving-ground independent`: the diagnosis
 run blind on proving-ground logs, scored against their truth.
 
+Families (`plan`): one effect per log (single), two or three at once
+(multi), one at a fraction of its size, near the instruments' noise
+(subtle), and none withheld (null: every event named there is a false alarm).
+
 Figures: top-1 (the top explanation's effects are exactly the true set),
 recall (the share of the true effects inside the top explanation), held-out
 shrink of the top explanation, each per effect and per test kind, and a
@@ -16,8 +20,11 @@ explanation. A model-form effect (the tracked point on the drogue) is no
 event of the flight: the generator's drogue always differs from the model's
 in its reference point (`physics.CP_OFFSET_M`, `CG_SHARE`), so naming it is
 neither a hit nor a miss. Nor is a calibration within a data sheet's
-tolerance beside an event beyond it: the generator scatters the hardware
-about its data sheets (`physics.SPREAD`) as the real hardware is scattered.
+tolerance, beside an event beyond it or alone (`events`: alone, the
+diagnosis names it and says the gap may be the hardware's own spread about
+its data sheet, `findings`, which claims no event of the flight): the
+generator scatters the hardware about its data sheets (`physics.SPREAD`) as
+the real hardware is scattered.
 Where that scatter falls beyond the data sheet's tolerance (the registry's
 `Param.tolerance`: a drogue C_L drawn up to 30 % off against its 25 %), the
 hardware is off its data sheet, and that is an effect of the flight: the
@@ -50,7 +57,7 @@ from flighttest.residual import residual
 from solver.chain import DivergenceError
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import evaluate, gap, record
-from workbench.diagnosis.explanation import events_of, within_tolerance
+from workbench.diagnosis.explanation import within_tolerance
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.rank import diagnose_family
 from workbench.diagnosis.select import score_candidate
@@ -61,7 +68,7 @@ from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup, app
 from workbench.proving.generate import KIND_EFFECTS, generate
 from workbench.simlog import result_to_record
 
-FAMILIES = ("single", "multi")
+FAMILIES = ("single", "multi", "subtle", "null")
 MIN_EACH = 3   # every effect at least this often in the one-at-a-time family (`plan`)
 
 
@@ -73,13 +80,18 @@ def plan(n: int, family: str, seed: int) -> list[tuple[str, tuple, int]]:
     number of events (gust, bow wave and reel lag act on one kind only, and
     kinds in turn would leave them one or two logs in 48), on each kind that
     can carry it, and the kinds stay as even as that leaves them; multi:
-    kinds in turn, 2-3 distinct effects of the kind at random."""
+    kinds in turn, 2-3 distinct effects of the kind at random; subtle: the
+    single family's plan, each log's effect at a fraction of its size
+    (`generate.shrink`); null: kinds in turn, no event withheld (the form
+    and the nuisance only): what the diagnosis names there is a false alarm."""
     if family not in FAMILIES:
         raise ValueError(f"family must be one of {FAMILIES}, got {family!r}")
     rng = np.random.default_rng([seed, FAMILIES.index(family)])   # the families draw apart
     kinds = list(KIND_EFFECTS)
     shuffled = {k: [KIND_EFFECTS[k][j] for j in rng.permutation(len(KIND_EFFECTS[k]))] for k in kinds}
     seeds = rng.integers(1, 2 ** 31 - 1, size=n)
+    if family == "null":
+        return [(kinds[i % len(kinds)], (), int(s)) for i, s in enumerate(seeds)]
     if family == "multi":
         return [(kinds[i % len(kinds)],
                  tuple(sorted(rng.choice(shuffled[kinds[i % len(kinds)]], size=int(rng.integers(2, 4)),
@@ -155,17 +167,20 @@ def truth_fit(path: Path, truth: dict, true: set, top: Candidate, floor: float, 
     when its held-out gap is below the top's by more than the noise
     `floor`. A top that holds a random motion is compared by its
     deterministic set, refitted from the top's values (a random motion's
-    gap is its statistics', no like-for-like evidence: `rank`). None when no
-    such event is left."""
+    gap is its statistics', no like-for-like evidence: `rank`). None when
+    the true events are none it can fit (a null log's truth, no event, is
+    fitted as its calibrations and model form)."""
     rec = record(str(path))   # read once per worker: the diagnosis read it just before
     kind, case = rec.info.test_kind, setup.case_for(rec)
     events = sorted(e for e in true if not applicable(e, kind, case, rec))
-    if not events:
+    if true and not events:
         return None
     model_form = {e: top.params.get(e, {}) for e in top.effects if EFFECTS[e].model_form}
     cals = sorted(({e for e, _ in SCATTER.values() if not applicable(e, kind, case, rec)}
                    | set(top.calibrations or {})) - set(events))
     effects = ordered(events + cals + list(model_form))
+    if not effects:
+        return None
     w = truth_start(truth, events + cals, model_form)
     c = score_candidate(([str(path)], effects, setup, {"folds": [w, w], "all": w}))
     if not c.success:
@@ -202,15 +217,43 @@ def _refit(job):
     path, row, n_elements = job
     top = Candidate(row["top_explanation"], list(row["top_effects"]), 0, params=row["top_params"],
                     gap_after_heldout=row["gap_after_heldout"], calibrations=row["top_calibrations"])
-    return truth_fit(path, row, set(row["truth"].split("+")), top, row["noise_floor"], Setup(n_elements))
+    return truth_fit(path, row, _true_set(row), top, row["noise_floor"], Setup(n_elements))
+
+
+def events(c: Candidate) -> frozenset:
+    """The events of the flight an explanation claims: what it names
+    (`Candidate.named`) less its calibrations within a data sheet's
+    tolerance, which it names only where nothing else is left."""
+    return frozenset(c.named or ()) - set(c.calibrations or {})
+
+
+def _spelled(effects: set) -> str:
+    """A set of events as the rows and the confusion matrix spell it."""
+    return "+".join(sorted(effects)) or "none"
+
+
+def _true_set(row: dict) -> set:
+    return set() if row["truth"] == "none" else set(row["truth"].split("+"))
+
+
+def _recall(true: set, named: set) -> float | None:
+    """The share of the true events named; None where none was withheld
+    (a null log: what it names is a false alarm, counted by top-1)."""
+    return len(true & named) / len(true) if true else None
+
+
+def _mean(values) -> float | None:
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None
 
 
 def run_one(job) -> dict:
     """Generate one log and diagnose it blind (runs in a worker)."""
-    kind, effects, seed, out_dir, n_elements = job
+    kind, effects, seed, out_dir, n_elements, family = job
     t = time.perf_counter()
     try:
-        path, truth, reference = generate(kind, list(effects), seed, Path(out_dir), reference=True)
+        path, truth, reference = generate(kind, list(effects), seed, Path(out_dir), reference=True,
+                                          subtle=family == "subtle")
     except DivergenceError as exc:
         # the truth model itself failed: no log, reported apart (not scored)
         return {"kind": kind, "effects": list(effects), "seed": seed, "generate_failed": str(exc)}
@@ -222,23 +265,25 @@ def run_one(job) -> dict:
     except SimulationFailed as exc:
         # the diagnosis's own baseline failed on this log: it names nothing, a miss,
         # counted in the figures and listed with its reason
-        return {**truth, "log": path.name, "truth": "+".join(sorted(true)), "top": "failed",
-                "diagnose_failed": str(exc), "correct": False, "recall": 0.0, "nameable": True, "unnameable": [],
+        return {**truth, "log": path.name, "truth": _spelled(true), "top": "failed",
+                "diagnose_failed": str(exc), "correct": False, "recall": _recall(true, set()), "nameable": True,
+                "unnameable": [],
                 "shrink_heldout": 0.0, "generate_s": t_gen, "diagnose_s": time.perf_counter() - t - t_gen}
     top = d.ranking[0]
-    named = top.named
+    named = events(top)
     unnameable = sorted(e for e in true if e in d.not_applicable)
     # a miss: could the logs have said so? (the true set's own fit; a hit needs none)
     t_fit = time.perf_counter()
-    oracle = None if set(named) == true else truth_fit(path, truth, true, top, d.noise_floor, Setup(n_elements))
+    oracle = None if named == true else truth_fit(path, truth, true, top, d.noise_floor, Setup(n_elements))
     t_fit = time.perf_counter() - t_fit
-    return {**truth, "log": path.name, "truth": "+".join(sorted(true)), "top": "+".join(sorted(named)) or "none",
+    return {**truth, "log": path.name, "truth": _spelled(true), "top": _spelled(named),
             "top_explanation": top.effect, "top_effects": list(top.effects), "top_params": top.params,
             "top_calibrations": top.calibrations, "top_probability": top.probability,
-            "top_named_probability": d.named_probability.get(events_of(top)),
+            # the probability of those events: every ranked explanation claiming just them
+            "top_named_probability": sum(c.probability or 0.0 for c in d.ranking if events(c) == named),
             "top_implausible": top.implausible,
             "implausible": {c.effect: c.implausible for c in d.ranking if c.implausible},
-            "correct": set(named) == true, "recall": len(true & set(named)) / len(true),
+            "correct": named == true, "recall": _recall(true, named),
             "nameable": not unnameable, "unnameable": unnameable,
             "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
             "shrink_heldout": top.shrink_heldout, "noise_floor": d.noise_floor,
@@ -289,15 +334,18 @@ def _figures(rows: list) -> dict:
         return {"n": 0}
     shr = np.array([r["shrink_heldout"] for r in rows], float)
     nameable = [r for r in rows if r["nameable"]]
+    null = [r for r in rows if r["truth"] == "none"]
     seen = [r for r in rows if r["detectable"]]
     return {"n": len(rows), **_reliability(rows), "top1": float(np.mean([r["correct"] for r in rows])),
-            "recall": float(np.mean([r["recall"] for r in rows])),
+            "recall": _mean(r["recall"] for r in rows),
             "median_shrink": float(np.median(shr)), "share_shrink_ge_70pct": float(np.mean(shr >= 0.7)),
             "n_nameable": len(nameable),
             "top1_nameable": float(np.mean([r["correct"] for r in nameable])) if nameable else None,
             "n_detectable": len(seen),
             "top1_detectable": float(np.mean([r["correct"] for r in seen])) if seen else None,
-            "recall_detectable": float(np.mean([r["recall"] for r in seen])) if seen else None,
+            "recall_detectable": _mean(r["recall"] for r in seen),
+            # no event withheld (the null family): the share that names none, 1 - the false-alarm rate
+            "n_no_event": len(null), "no_event_named_none": _mean(r["correct"] for r in null),
             **_missed(rows)}
 
 
@@ -325,7 +373,7 @@ def run_campaign(n: int, family: str = "single", seed: int = 2026, n_elements: i
     t = time.perf_counter()
     logs = Path(tempfile.mkdtemp(prefix="proving-") if out_dir is None else out_dir) / f"logs-{family}"
     logs.mkdir(parents=True, exist_ok=True)
-    jobs = [(k, e, s, str(logs), n_elements or DEFAULT_ELEMENTS) for k, e, s in plan(n, family, seed)]
+    jobs = [(k, e, s, str(logs), n_elements or DEFAULT_ELEMENTS, family) for k, e, s in plan(n, family, seed)]
     with Mapper(workers, scheduler) as mapper:
         rows = mapper(run_one, jobs, progress=progress)
     failed = [r for r in rows if "generate_failed" in r]
@@ -354,6 +402,9 @@ def text(r: dict) -> str:
              + (f"; {len(r['generate_failed'])} truth simulations failed, not scored" if r["generate_failed"] else "")
              + (f"; the diagnosis's baseline failed on {r['n_diagnose_failed']} (counted as misses)"
                 if r.get("n_diagnose_failed") else "")]
+    if r.get("n_no_event"):
+        lines.append(f"  no event withheld: {r['n_no_event']} logs, named none in {_pct(r['no_event_named_none'])} "
+                     f"(false alarms {_pct(1.0 - r['no_event_named_none'])})")
     if "n_missed_truth_better" in r:
         lines.append(f"  misses: {r['n_missed_truth_better']} where the true set, fitted from its own values, "
                      f"explains the log better held out by more than the noise floor (the selection missed it); "

@@ -89,6 +89,37 @@ KIND_EFFECTS = {
 # every effect an event of a flight can carry (model-form ones are the form's: physics.py)
 assert set(DRAWS) == {e for e in EFFECTS if not EFFECTS[e].model_form}
 
+# The parameters that set each effect's size (its shape, time and seed left as
+# drawn): what a subtle log shrinks towards the parameter's off value.
+MAGNITUDE = {"drogue_lift": ("scale",), "drogue_drag": ("scale",), "hose_drag": ("crossflow",),
+             "hose_stiffness": ("bending",), "steady_wind": ("vertical_mps", "lateral_mps"),
+             "tanker_wake": ("strength",), "turbulence": ("sigma_mps",), "gust": ("vertical_mps",),
+             "reel_lag": ("dead_time_s",), "sensor_lag": ("delay_s",), "bow_wave": ("strength",)}
+assert set(MAGNITUDE) == set(DRAWS)
+# A subtle log keeps this share of each drawn size (uniform), towards the
+# records "near the sensor noise" the product is tried on (issue 13): the
+# one-effect family's signatures are a median 11 times their log's noise
+# floor (its campaign's rows, signature_gap_m / signature_floor_m), and a
+# signature is about linear in a small effect's size. A factor with a
+# data-sheet tolerance stays at least SUBTLE_MIN_TOLERANCES of it off the
+# sheet: nearer, it is a calibration of the sheet's value, no event to name.
+SUBTLE_SHARE = (0.15, 0.4)
+SUBTLE_MIN_TOLERANCES = 1.5
+
+
+def shrink(effect: str, params: dict, share: float) -> dict:
+    """`params` of `effect` with its size (`MAGNITUDE`) brought to `share` of
+    its departure from the parameter's off value, and no nearer the data
+    sheet than `SUBTLE_MIN_TOLERANCES` x the parameter's tolerance."""
+    out = dict(params)
+    for name in MAGNITUDE[effect]:
+        p = EFFECTS[effect].params[name]
+        d = share * (params[name] - p.off)
+        if p.tolerance is not None:
+            d = np.sign(d) * max(abs(d), SUBTLE_MIN_TOLERANCES * p.tolerance * abs(p.off))
+        out[name] = float(p.off + d)
+    return out
+
 
 # The flight condition moved about the card's: (key, how, size, format)
 CONDITION_SPREAD = (("altitude_ft", "add", 2500.0, ".0f"), ("airspeed_kcas", "add", 15.0, ".1f"),
@@ -196,9 +227,10 @@ def _truth_run(kind, raw, inp, like, form, phys, reel, T):
     return simulate(model, T, s0, record_dt=0.01)
 
 
-def generate(kind: str, effects: list[str], seed: int, out_dir: Path,
-             reference: bool = False) -> tuple[Path, dict] | tuple[Path, dict, object]:
-    """One log with `effects` on at random parameters; its path and the truth
+def generate(kind: str, effects: list[str], seed: int, out_dir: Path, reference: bool = False,
+             subtle: bool = False) -> tuple[Path, dict] | tuple[Path, dict, object]:
+    """One log with `effects` on at random parameters (`subtle`: their sizes
+    shrunk to a `SUBTLE_SHARE` of the draw, `shrink`); its path and the truth
     (effects and parameters, the form differences, the nuisance). With
     `reference`, also the same flight without `effects` (a `SimulationResult`
     of the same form, inputs and nuisance turbulence, before the
@@ -210,6 +242,9 @@ def generate(kind: str, effects: list[str], seed: int, out_dir: Path,
     form = draw_form(rng, kind)
     topics, T = _inputs(kind, raw, like, rng)
     params = {e: DRAWS[e](rng, T) for e in effects}
+    share = float(rng.uniform(*SUBTLE_SHARE)) if subtle else 1.0
+    if subtle:
+        params = {e: shrink(e, p, share) for e, p in params.items()}
     nuisance = {"sigma_mps": float(rng.uniform(*NUISANCE_SIGMA_MPS)),
                 "length_scale_m": float(rng.uniform(*NUISANCE_SCALE_M)), "seed": int(rng.integers(1, 2 ** 30))}
     phys = {e: p for e, p in params.items() if not EFFECTS[e].comparison_only}
@@ -246,7 +281,7 @@ def generate(kind: str, effects: list[str], seed: int, out_dir: Path,
     path = Path(out_dir) / f"{raw['test_id']}.mcap"
     write_record(path, rec)
     truth = {"kind": kind, "effects": list(effects), "params": params, "seed": seed, "card": like.info.test_id,
-             "form": form, "nuisance_turbulence": None if "turbulence" in params else nuisance}
+             "form": form, "nuisance_turbulence": None if "turbulence" in params else nuisance, "share": share}
     if not reference:
         return path, truth
     without = {e: p for e, p in phys.items() if e not in effects}
