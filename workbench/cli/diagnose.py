@@ -11,6 +11,7 @@ import click
 from workbench.cli.params import WORKERS
 from workbench.errors import InputError
 from workbench.outputs import claim, timestamped
+from workbench.proving import FAMILIES
 from workbench.provenance import ROOT, project_path
 
 # the diagnosis the repository keeps (validate folds it into its report): only
@@ -41,7 +42,7 @@ COMMITTED = ROOT / "reports" / "diagnose"
 @click.option("--proving-ground", "proving", type=click.Choice(["own", "independent"]), default="own",
               show_default=True, help="Selftest logs from the diagnosis's own model, or from the independent-form "
                                       "proving ground (workbench.proving).")
-@click.option("--family", type=click.Choice(["single", "multi", "subtle", "null"]), default="single",
+@click.option("--family", type=click.Choice(FAMILIES), default="single",
               show_default=True, help="Proving ground: one effect per log, 2-3 at once, one at a fraction of its "
                                       "size (near the noise), or none withheld (false alarms).")
 @click.option("--baseline", type=click.Choice(["fleet", "datasheet"]), default="fleet", show_default=True,
@@ -67,8 +68,7 @@ def diagnose(logs, out_dir, update_committed, force, selftest, n_logs, seed, n_e
         out_dir = _out_folder(out_dir, update_committed)
         # the folder checked, unclaimed by another run and locked before any computing
         click.get_current_context().with_resource(
-            claim(out_dir, ["diagnosis.json", "selftest.json", "proving-single.json", "proving-multi.json",
-                           "proving-subtle.json", "proving-null.json"],
+            claim(out_dir, ["diagnosis.json", "selftest.json", *(f"proving-{f}.json" for f in FAMILIES)],
                   force or update_committed))
         if selftest and proving == "independent":
             _proving_ground(n_logs, family, seed, n_elements, workers, scheduler, out_dir, progress)

@@ -12,3 +12,8 @@ The diagnosis never imports this package: the two share only the log
 contract (flighttest's writer and reader, the schema). `generate` imports no
 part of `workbench.diagnosis`; `campaign` is the harness that uses both.
 """
+
+# The campaigns' families (`campaign.plan`), here where the command line reads
+# them without importing the harness: one effect per log, two or three at
+# once, one near the instruments' noise, none withheld.
+FAMILIES = ("single", "multi", "subtle", "null")

@@ -63,12 +63,12 @@ from workbench.diagnosis.rank import diagnose_family
 from workbench.diagnosis.select import score_candidate
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
+from workbench.proving import FAMILIES
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import DEFAULT_ELEMENTS, NOISE_FACTOR, Setup, applicable, calibrated_params
 from workbench.proving.generate import KIND_EFFECTS, generate
 from workbench.simlog import result_to_record
 
-FAMILIES = ("single", "multi", "subtle", "null")
 MIN_EACH = 3   # every effect at least this often in the one-at-a-time family (`plan`)
 
 
@@ -340,9 +340,9 @@ def _figures(rows: list) -> dict:
             "recall": _mean(r["recall"] for r in rows),
             "median_shrink": float(np.median(shr)), "share_shrink_ge_70pct": float(np.mean(shr >= 0.7)),
             "n_nameable": len(nameable),
-            "top1_nameable": float(np.mean([r["correct"] for r in nameable])) if nameable else None,
+            "top1_nameable": _mean(r["correct"] for r in nameable),
             "n_detectable": len(seen),
-            "top1_detectable": float(np.mean([r["correct"] for r in seen])) if seen else None,
+            "top1_detectable": _mean(r["correct"] for r in seen),
             "recall_detectable": _mean(r["recall"] for r in seen),
             # no event withheld (the null family): the share that names none, 1 - the false-alarm rate
             "n_no_event": len(null), "no_event_named_none": _mean(r["correct"] for r in null),
