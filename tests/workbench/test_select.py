@@ -715,15 +715,6 @@ def test_within_the_noise_a_step_takes_the_addition_naming_fewest_events():
     # the same events: fewer parameters, then the smaller gap
     lift = _fit({"drogue_drag": {"scale": 1.5}, "drogue_lift": {"scale": 0.5}}, 0.0159)
     assert SEL.choose([wind, lift], floor) is lift
-    # a set of calibrations alone claims no event, though `explain` names them
-    # (nothing beyond them is left): within the noise it goes before one event
-    # beyond its sheet (the measured step of a proving-ground engagement
-    # without any event: hose drag 1.09 at 0.0456 m, bending stiffness 0.23 at
-    # 0.0458 m, both over a lift of 1.16, floor 0.018 m)
-    cals = _fit({"drogue_lift": {"scale": 1.16}, "hose_drag": {"crossflow": 1.09}}, 0.0456)
-    stiff = _fit({"drogue_lift": {"scale": 1.16}, "hose_stiffness": {"bending": 0.23}}, 0.0458)
-    assert SEL.choose([stiff, cals], 0.018) is cals
-    assert SEL.choose([stiff, _fit(cals.params, 0.0458 + 1.01 * 0.018)], 0.018) is stiff
 
 
 def test_a_simpler_addition_that_explains_only_the_noise_does_not_stop_a_step_another_earns():

@@ -180,21 +180,12 @@ def widened(floor: float, chance: Callable | None, before: Candidate | None, aft
 def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
     """The addition a step takes among `fits`: of those whose held-out gap
     is within the noise floor `floor` of the best (the data cannot tell them
-    apart), the one that claims the fewest events beyond a data sheet's
-    tolerance (a calibration within it is no event, `explanation.explain`),
-    then has the fewest parameters, then the smallest gap. Counted as
-    claimed, not as named: `explain` names a set's calibrations where
-    nothing beyond them is left, and counting those made a set of two
-    calibrations (a drogue lift of 1.16 and a hose drag of 1.09, 0.0456 m
-    held out) lose to a lift with a hose bending stiffness of 0.23 (0.0458
-    m, floor 0.018 m) on a proving-ground engagement that withheld no event."""
+    apart), the one that names the fewest events (a calibration within its
+    data sheet's tolerance is no event, `explanation.explain`), then has the
+    fewest parameters, then the smallest gap."""
     least = min(c.gap_after_heldout for c in fits)
     similar = [c for c in fits if c.gap_after_heldout <= least + floor]
-
-    def claimed(c):
-        named, calibrations = explain(c.effects, c.params, prior)
-        return len(set(named) - set(calibrations))
-    return min(similar, key=lambda c: (claimed(c), c.n_params, c.gap_after_heldout))
+    return min(similar, key=lambda c: (len(explain(c.effects, c.params, prior)[0]), c.n_params, c.gap_after_heldout))
 
 
 def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
