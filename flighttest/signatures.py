@@ -21,6 +21,7 @@ the feature named in the component's band).
 The reel's take-up start against contact is no component: the baseline
 prescribes the logged payout (`[model] reel = "from_log"`), so the simulated
 reel is the log's own and the feature would be zero whatever the effects.
+The reel is measured against the receiver's closure instead (`reel`).
 
 Noise floors are the log's own scatter: the tracker's and tow point's
 sample-to-sample scatter (std of second differences / sqrt 6) through the

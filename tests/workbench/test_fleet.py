@@ -35,7 +35,8 @@ def _family(selected: dict, ranking_first: dict | None = None):
     chosen = types.SimpleNamespace(effects=list(selected), params=selected)
     ranking = [chosen] if ranking_first is None else [types.SimpleNamespace(effects=list(ranking_first),
                                                                             params=ranking_first), chosen]
-    return types.SimpleNamespace(ranking=ranking, selection={"effects": list(selected)}, logs=["L1", "L2"])
+    return types.SimpleNamespace(ranking=ranking, selection={"effects": list(selected)}, logs=["L1", "L2"],
+                                 reel_established=None)
 
 
 def test_an_entry_keeps_the_selected_set_s_hardware_effects_not_the_day_s():
@@ -68,6 +69,33 @@ def test_the_fleet_file_reads_back_what_was_written(tmp_path_factory, lift, drag
     assert got == {"engagement/kdc10/kdc10_pod": {"drogue_lift": {"scale": lift}, "tanker_wake": {"strength": wake},
                                                   "drogue_reference": {"offset_m": offset}},
                    'odd "name"/x': {"drogue_drag": {"scale": drag}}}
+
+
+REEL = {"reel": "kdc10_pod", "delay_s": 0.2, "natural_frequency_rad_s": 4.05, "damping_ratio": 0.396,
+        "gain": 0.935, "everyday_misfit_m": 0.09, "logs": ["EN-KDC10-E11", "EN-KDC10-E7"]}
+
+
+def test_the_fleet_file_reads_back_a_reel_s_reference_response(tmp_path):
+    fam = _family({"drogue_lift": {"scale": 0.6}})
+    fam.reel_established = REEL
+    path = tmp_path / "fleet.toml"
+    path.write_text(fleet.text(types.SimpleNamespace(families={"engagement/kdc10/kdc10_pod": fam}), "a test"))
+    assert fleet.reel_references(path) == {"kdc10_pod": {k: v for k, v in REEL.items() if k != "reel"}}
+    assert fleet.load(path) == {"engagement/kdc10/kdc10_pod": {"drogue_lift": {"scale": 0.6}}}
+    assert fleet.reel_references(tmp_path / "none.toml") == {}
+
+
+@pytest.mark.parametrize("key,value", [("gain", None), ("damping_ratio", 0.0), ("everyday_misfit_m", -0.1),
+                                       ("delay_s", float("nan"))])
+def test_a_bad_reel_reference_is_bad_input_naming_the_key(tmp_path, key, value):
+    ref = {k: v for k, v in REEL.items() if k not in ("reel", "logs", key)}
+    body = "[reels.kdc10_pod]\n" + "".join(f"{k} = {v!r}\n" for k, v in ref.items())
+    if value is not None:
+        body += f"{key} = {'nan' if value != value else repr(value)}\n"
+    path = tmp_path / "fleet.toml"
+    path.write_text(body)
+    with pytest.raises(InputError, match=f"reels.kdc10_pod.{key}"):
+        fleet.reel_references(path)
 
 
 @pytest.mark.parametrize("body,says", [
@@ -137,6 +165,15 @@ def test_the_committed_fleet_is_the_committed_diagnosis_s_hardware():
         for e, ps in want.items():
             for k, v in ps.items():
                 assert_allclose(got[name][e][k], v, rtol=1e-12)
+
+
+def test_the_committed_reel_reference_is_the_committed_diagnosis_s():
+    js = json.loads((ROOT / "reports" / "diagnose" / "diagnosis.json").read_text())
+    est = [f["reel_established"] for f in js["families"].values() if f.get("reel_established")]
+    assert est, "the committed diagnosis of the program's engagements establishes its reel's response"
+    got = fleet.reel_references()
+    for e in est:
+        assert got[e["reel"]] == {k: v for k, v in e.items() if k != "reel"}
 
 
 def test_a_log_of_a_listed_family_is_diagnosed_against_its_fleet_calibration(monkeypatch):

@@ -411,7 +411,7 @@ def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_set
     joint = _joined(sel.chosen, _turb(["turbulence"], 0.05))
     sel = SEL.with_random(sel, _turb(["turbulence"], 0.3 * g0), joint, g0, _est(light, 0.2 * light))
     p = random_presence(_est(light - 0.1, 0.1))
-    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200, presence=p)
+    ranking = rank_selection(sel, _none(g0), 0.01, n_heldout=200, presence={"turbulence": p})
     assert ranking.index(form) < ranking.index(next(c for c in ranking if c.effect == "tanker_wake" and c is not form))
     det = [c for c in ranking if "turbulence" not in c.effects]
     plain = dict(zip((id(c) for c in det), probabilities([c.gap_after_heldout for c in det],

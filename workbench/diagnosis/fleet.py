@@ -25,6 +25,7 @@ import math
 import tomllib
 from pathlib import Path
 
+from flighttest.metrics.reel import RESPONSE_BOX, RESPONSE_KEYS
 from solver.effects import EFFECTS
 from workbench.errors import InputError
 
@@ -84,7 +85,40 @@ def text(diagnosis, source: str) -> str:
         for eff, ps in e["effects"].items():
             lines.append(f"{eff} = {{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in ps.items()) + " }")
         lines.append("")
+    reels = {fam.reel_established["reel"]: fam.reel_established for _, fam in sorted(diagnosis.families.items())
+             if fam.reel_established and fam.reel_established.get("reel")}
+    for reel_id, ref in sorted(reels.items()):
+        lines += [f"[reels.{_toml_value(reel_id)}]", f"logs = {_toml_value(ref['logs'])}"]
+        lines += [f"{k} = {_toml_value(ref[k])}" for k in (*RESPONSE_KEYS, "everyday_misfit_m")]
+        lines.append("")
     return "\n".join(lines)
+
+
+def _read(path: Path) -> dict:
+    try:
+        return tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{path}: not a TOML file: {exc}") from exc
+
+
+def reel_references(path: Path = FLEET_PATH) -> dict:
+    """{reel id: its reference response} (`reel.established`: the response
+    fitted on the program's engagements of the reel, its everyday misfit, the
+    logs); {} when there is no fleet file. A value missing, not finite or
+    outside the response's search box is bad input (exit 2)."""
+    path = Path(path)
+    if not path.exists():
+        return {}
+    out = {}
+    for reel_id, tbl in (_read(path).get("reels") or {}).items():
+        ref = {"logs": list(tbl.get("logs") or [])}
+        for k, (lo, hi) in {**RESPONSE_BOX, "everyday_misfit_m": (1e-6, 10.0)}.items():
+            v = tbl.get(k)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and lo <= v <= hi):
+                raise InputError(f"{path}: reels.{reel_id}.{k} = {v!r}: needs a number in {lo:g}..{hi:g}")
+            ref[k] = float(v)
+        out[reel_id] = ref
+    return out
 
 
 def load(path: Path = FLEET_PATH) -> dict:
@@ -94,12 +128,8 @@ def load(path: Path = FLEET_PATH) -> dict:
     path = Path(path)
     if not path.exists():
         return {}
-    try:
-        raw = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{path}: not a TOML file: {exc}") from exc
     out = {}
-    for fam, tbl in (raw.get("families") or {}).items():
+    for fam, tbl in (_read(path).get("families") or {}).items():
         effects = {}
         for eff, ps in tbl.items():
             if eff == "logs":

@@ -68,6 +68,7 @@ from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import Components, baseline_held_out, splitter_for
 from workbench.diagnosis.identify import not_separable
 from workbench.diagnosis.remainder import remainder
+from workbench.diagnosis.reel import EFFECT, established, reel_evidence, with_reel
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, acceptance, forward_select, widened, with_random
@@ -182,33 +183,40 @@ def random_presence(estimate) -> float:
     return 0.5 * math.erfc(-z / math.sqrt(2.0))
 
 
+# effects not simulated, whose evidence is their own (turbulence: its statistics;
+# the reel lag: the reel channel, `reel`), each with a probability of presence
+MEASURED = ("turbulence", "reel_lag")
+
+
 def _form(c: Candidate) -> tuple:
-    """`c`'s deterministic effects with the names of their fitted parameters."""
-    return tuple((e, tuple(sorted(c.params.get(e, {})))) for e in c.effects if e != "turbulence")
+    """`c`'s simulated effects with the names of their fitted parameters."""
+    return tuple((e, tuple(sorted(c.params.get(e, {})))) for e in c.effects if e not in MEASURED)
 
 
-def with_random_share(ranking: list, weights: dict, presence: float) -> None:
+def with_random_share(ranking: list, weights: dict, presence: dict) -> None:
     """Set every candidate's probability from `weights` ({id: Akaike weight}
-    of the deterministic candidates, summing to 1): a candidate with
-    turbulence takes `presence` of its deterministic set's weight (found in
-    `ranking` by its effects and parameters; "none" for turbulence alone), which keeps the
-    rest; one whose deterministic set is not ranked gets 0."""
+    of the simulated candidates, those without a `MEASURED` effect, summing
+    to 1): the candidates over one simulated set (found in `ranking` by its
+    effects and parameters; "none" for measured effects alone) share its
+    weight as independent events of probability `presence` ({effect: p}):
+    one with measured effects X takes the product of p over X and of 1 - p
+    over the other measured effects ranked on that set; one whose simulated
+    set is not ranked gets 0."""
     # a set is its effects and their fitted parameters: a refinement of its form
     # (`select._refine`) fits the same effects with one parameter more
-    by_set = {_form(c): c for c in ranking if "turbulence" not in c.effects}
+    by_set = {_form(c): c for c in ranking if not set(c.effects) & set(MEASURED)}
+    on_set: dict = {}
     for c in ranking:
-        c.probability = weights.get(id(c), 0.0)
+        on_set.setdefault(_form(c), set()).update(set(c.effects) & set(MEASURED))
     for c in ranking:
-        if "turbulence" in c.effects:
-            d = by_set.get(_form(c))
-            w = weights.get(id(d), 0.0) if d is not None else 0.0
-            c.probability = w * presence
-            if d is not None:
-                d.probability -= c.probability
+        d = by_set.get(_form(c))
+        share = math.prod(presence.get(e, 0.0) if e in c.effects else 1.0 - presence.get(e, 0.0)
+                          for e in on_set[_form(c)])
+        c.probability = (weights.get(id(d), 0.0) if d is not None else 0.0) * share
 
 
 def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: float,
-                   prior: dict | None = None, presence: float = 0.0, chance: Callable | None = None) -> list:
+                   prior: dict | None = None, presence: dict | None = None, chance: Callable | None = None) -> list:
     """The ranking of what forward selection fitted: the selected set first,
     then the other candidates by score (held-out gap x (1 + `PARAM_PENALTY`
     per parameter)), `none` last; `none` first when no set was selected. Then
@@ -218,8 +226,8 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     probability over the `n_heldout` held-out residual components
     (`probabilities` among the deterministic candidates, each against the
     best on the evidence that separates them, `separating_components`; a set with
-    turbulence taking `presence` of its deterministic set's weight:
-    `with_random_share`; the evidence capped at what a real random motion
+    measured effects taking their `presence` ({effect: p}) of its simulated set's
+    weight: `with_random_share`; the evidence capped at what a real random motion
     explains by chance along the pattern that tells each from the best,
     `chance(c, best)` in m, when given)."""
     for c in sel.fitted:
@@ -229,12 +237,12 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
     ranking = plausible_first(ranking, floor)
     for c in ranking:
         c.named, c.calibrations = explain(c.effects, c.params, prior)
-    det = [c for c in ranking if "turbulence" not in c.effects]
+    det = [c for c in ranking if not set(c.effects) & set(MEASURED)]
     best = min(det, key=lambda c: c.gap_after_heldout)
     weights = probabilities([c.gap_after_heldout for c in det], [c.n_params for c in det], floor,
                             [separating_components(c, best, n_heldout) for c in det],
                             [chance(c, best) if chance is not None else 0.0 for c in det])
-    with_random_share(ranking, {id(c): w for c, w in zip(det, weights)}, presence)
+    with_random_share(ranking, {id(c): w for c, w in zip(det, weights)}, presence or {})
     return ranking
 
 
@@ -264,9 +272,10 @@ def within_chance(sel: Selection, turb, floor: float) -> list[str]:
 
 
 def _simulated(c: Candidate | None) -> dict:
-    """The effects of `c` a simulation can carry: all but a random one (no
-    realisation of it to simulate); {} for none."""
-    return {e: v for e, v in (c.params if c else {}).items() if e != "turbulence"}
+    """The effects of `c` a simulation can carry: all but the `MEASURED` ones
+    (no realisation of a random one to simulate; the reel lag on a prescribed
+    payout); {} for none."""
+    return {e: v for e, v in (c.params if c else {}).items() if e not in MEASURED}
 
 
 def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable | None = None,
@@ -297,6 +306,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
             excluded[e] = why
         else:
             cands.append(e)
+    reel, est = _reel(paths, recs, kind, case, excluded)
     scores, screen_failed, columns = screen_scores(paths, cands, setup, base, mapper)
     failed = [Candidate(e, [e], len(calibrated_params((e,))), success=False, message=f"screen probe: {why}")
               for e, why in screen_failed.items()]
@@ -340,6 +350,9 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     none = Candidate("none", [], 0, gap_before=gap_before_heldout if len(paths) == 1 else gap_before,
                      gap_after_train=gap_before_train, gap_after_heldout=gap_before_heldout, shrink_heldout=0.0,
                      score=gap_before_heldout, held_out=baseline_held_out(paths, base))
+    if reel is not None:
+        sel = with_reel(sel, none, reel)
+        say(f"reel: {reel.why()}")
     within_noise = gap_before <= NOISE_FACTOR * floor
     if sel.chosen is None:
         none.why = ("the baseline explains the logs to within their noise" if within_noise else
@@ -347,7 +360,9 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # the evidence's independent pieces, counted in what the selected set leaves
     n_eff = effective_components([evaluate(p, _simulated(sel.chosen), setup) for p in paths])
     ranking = turb.credit_steady(rank_selection(sel, none, floor, n_eff, setup.prior_effects,
-                                                random_presence(turb.estimate), turb.chance_offset),
+                                                {"turbulence": random_presence(turb.estimate),
+                                                 **({EFFECT: reel.presence} if reel is not None else {})},
+                                                turb.chance_offset),
                                  accepted=sel.chosen is not None and "turbulence" in sel.chosen.effects)
     if ranking[0] is none and not none.why:
         none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x what the day's air "
@@ -374,7 +389,27 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m,
         remainder=remainder(left), named_probability=named_probability(ranking),
         not_separable=not_separable(columns, np.concatenate([base[p].floor for p in paths])),
-        baseline=setup.prior_effects)
+        baseline=setup.prior_effects, reel=reel.to_json() if reel is not None else None, reel_established=est)
+
+
+def _reel(paths, recs, kind: str, case, excluded: dict):
+    """(the family's reel evidence, or None; the reference its own logs
+    establish for its reel, or None): on an engagement whose baseline
+    prescribes the logged payout, the take-up against the fleet file's
+    reference response of its reel (`reel`), the reel lag then no longer
+    excluded; without a reference it stays excluded, saying so."""
+    if kind != "engagement" or case["model"]["reel"] != "from_log":
+        return None, None
+    reel_id = recs[paths[0]].info.raw.get("reel")
+    est = established(paths, recs, reel_id)
+    ref = fleet.reel_references().get(reel_id)
+    evidence = reel_evidence(paths, recs, reel_id, ref) if ref is not None else None
+    if evidence is not None:
+        excluded.pop(EFFECT, None)
+    elif EFFECT in excluded:
+        excluded[EFFECT] += (f"; its evidence, the payout against a reference response of reel {reel_id}, "
+                             f"has no such reference ({fleet.FLEET_PATH.name}) or no reel track in the logs")
+    return evidence, est
 
 
 def group_families(paths) -> dict[str, list[str]]:

@@ -130,6 +130,26 @@ def _selection_blocks(d: dict) -> list:
             Para(f"Selected: {esc(' + '.join(sel['effects']) or 'none')}; stopped: {esc(sel['stopped'])}.")]
 
 
+def _reel_blocks(d: dict) -> list:
+    """The take-up against the reel's reference response (`reel`): the verdict,
+    its probability, and each log's misfit and own response; none where the
+    reel was not measured."""
+    ev = d.get("reel")
+    if not ev:
+        return []
+    rows = [[Cell(esc(log)), ev["misfit_m"][log], o["delay_s"], o["natural_frequency_rad_s"], o["damping_ratio"],
+             o["gain"]] for log, o in ev["own"].items()]
+    ref = ev["reference"]
+    rows.append([Cell(f"reference ({esc(', '.join(ref['logs']))})"), ref["everyday_misfit_m"], ref["delay_s"],
+                 ref["natural_frequency_rad_s"], ref["damping_ratio"], ref["gain"]])
+    return [Para(f"Reel lag, from the reel channel (the payout is prescribed, so it cuts none of the gap): "
+                 f"{esc(ev['why'])}; the probability that the reel took up the hose otherwise than the program's "
+                 f"reel: {fmt(ev['probability'])}."),
+            Table(["log", "take-up misfit, RMS (m)", "dead time (s)", "natural frequency (rad/s)", "damping ratio",
+                   "gain"], rows, [30, 14, 14, 14, 14, 14],
+                  title="Reel take-up against the receiver's closure (the reference's misfit: its everyday one)")]
+
+
 def _remainder_blocks(d: dict) -> list:
     """What the best explanation leaves, per channel (and hose station where a
     steady part is common to every log): steady and varying parts against the
@@ -445,7 +465,8 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                 f"residuals, each candidate against the best over the components in which the two differ, the "
                 f"evidence per m² at most what the selection's own test allows; a set "
                 f"with turbulence takes, of its deterministic set's weight, the probability that the random motion "
-                f"is real and at least light. Scheduler: {esc(diag.get('scheduler'))}.")]
+                f"is real and at least light, and one with the reel lag the probability that the reel's take-up "
+                f"departs from the program's reel. Scheduler: {esc(diag.get('scheduler'))}.")]
     for name, d in diag["families"].items():
         prob = any("probability" in c for c in d["ranking"])
         out += [Heading(2, esc(name), f"diagnosis-{anchor(name)}"),
@@ -466,6 +487,7 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
         if d.get("failed"):
             out.append(Para("Failed, not ranked: " + "; ".join(f"{esc(c['effect'])} ({esc(c['message'])})"
                                                              for c in d["failed"]) + "."))
+        out += _reel_blocks(d)
         out.append(Para(f"Remaining after the best: {fmt(d['remaining_unexplained']['gap_m'])} m, of which "
                         f"{fmt(d['remaining_unexplained']['above_noise_m'])} m above the noise floor."))
         out += _remainder_blocks(d)

@@ -118,6 +118,10 @@ class FamilyDiagnosis:
     remainder: dict = dataclasses.field(default_factory=dict)   # what the best leaves (`remainder.remainder`)
     # pairs of screened effects these logs cannot tell apart: {"effects": [a, b], "cosine"} (`identify`)
     not_separable: list = dataclasses.field(default_factory=list)
+    # the take-up against the reel's reference response (`reel.ReelEvidence.to_json`), None where not measured
+    reel: Optional[dict] = None
+    # the reference response these logs establish for their reel (`reel.established`), for the fleet file
+    reel_established: Optional[dict] = None
     # the effects every simulation carried under the candidates' own: a fleet
     # calibration of the hardware (`fleet`), {} for the data sheets' baseline
     baseline: dict = dataclasses.field(default_factory=dict)

@@ -9,8 +9,9 @@ Figures: top-1 (the top explanation's effects are exactly the true set),
 recall (the share of the true effects inside the top explanation), held-out
 shrink of the top explanation, each per effect and per test kind, and a
 confusion matrix (true set -> top explanation). A log whose true set holds an
-effect the diagnosis cannot rank on that kind (not applicable or not
-calibrated: turbulence, gust, a reel lag on a prescribed payout) counts as a
+effect the diagnosis cannot rank on that log (not applicable there: a gust
+on a trail or an engagement, a reel lag where the fleet file holds no
+reference response of its reel) counts as a
 miss in the plain figures and is also counted apart ("nameable" figures), so
 neither hides the other.
 
@@ -185,7 +186,7 @@ def truth_fit(path: Path, truth: dict, true: set, top: Candidate, floor: float, 
     c = score_candidate(([str(path)], effects, setup, {"folds": [w, w], "all": w}))
     if not c.success:
         return {"set": c.effect, "failed": c.message}
-    det = ordered(e for e in top.effects if not EFFECTS[e].not_calibrated)
+    det = ordered(e for e in top.effects if not applicable(e, kind, case, rec))
     against = top.gap_after_heldout
     if len(det) < len(top.effects):
         p = {e: top.params.get(e, {}) for e in det}

@@ -1,0 +1,110 @@
+"""The reel lag from the reel channel (`workbench.diagnosis.reel`): the evidence
+on the program's engagements and on one whose reel is late, its step in the
+selection, and its share of the probability beside turbulence."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import pytest
+from numpy.testing import assert_allclose
+
+from flighttest import make_record, read_record
+from workbench.diagnosis import select as SEL
+from workbench.diagnosis.rank import probabilities, rank_selection
+from workbench.diagnosis.reel import EFFECT, established, reel_evidence, with_reel
+from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.setup import NOISE_FACTOR
+
+from tests.workbench.test_select import _est, _none, _select, _turb
+
+FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
+E7, E11 = str(FLIGHT / "EN-KDC10-E7.mcap"), str(FLIGHT / "EN-KDC10-E11.mcap")
+
+
+@pytest.fixture(scope="module")
+def logs():
+    return {E7: read_record(E7), E11: read_record(E11)}
+
+
+def _late(rec, delay_s):
+    """`rec` with its payout `delay_s` later: a reel that takes the hose up late."""
+    payout = rec.topic("/reel/hose_out").copy()
+    payout.index = payout.index + delay_s
+    return make_record(rec.info.raw, {**rec.topics, "/reel/hose_out": payout}, rec.start_time_ns)
+
+
+def test_one_program_engagement_held_to_the_others_reel_is_no_event(logs):
+    ref = established([E11], logs, "kdc10_pod")
+    ev = reel_evidence([E7], logs, "kdc10_pod", ref)
+    # engagement 7 under engagement 11's response: 0.090 m against 11's own 0.082 m
+    assert not ev.event and ev.ratio == pytest.approx(1.11, abs=0.01) and ev.presence < 0.05
+    both = established([E7, E11], logs, "kdc10_pod")
+    assert both["logs"] == ["EN-KDC10-E11", "EN-KDC10-E7"] and both["everyday_misfit_m"] == pytest.approx(0.090,
+                                                                                                          abs=0.001)
+
+
+def test_a_reel_late_by_twice_its_everyday_misfit_is_an_event_with_its_probability(logs):
+    ref = established([E11], logs, "kdc10_pod")
+    # measured: 0.2 s later, 1.76 x the everyday misfit (not an event); 0.4 s, 2.91 x; 0.6 s, 4.10 x
+    ratios = []
+    for delay in (0.2, 0.4, 0.6):
+        ev = reel_evidence(["late"], {"late": _late(logs[E7], delay)}, "kdc10_pod", ref)
+        ratios.append(ev.ratio)
+        z = math.sqrt(ev.n_pieces) * math.log(ev.ratio / NOISE_FACTOR)
+        assert_allclose(ev.presence, 0.5 * math.erfc(-z / math.sqrt(2)), rtol=1e-12)
+        assert ev.event == (ev.ratio > NOISE_FACTOR) == (ev.presence > 0.5)
+        assert ev.to_json()["event"] == ev.event and "everyday misfit" in ev.why()
+    assert ratios == sorted(ratios) and ratios[0] < NOISE_FACTOR < ratios[1]
+    # the track's length (contact 10.44 s to disconnect 30.81 s, 2 s either side) over the
+    # reference response's period
+    period = 2 * math.pi / ref["natural_frequency_rad_s"]
+    assert ev.n_pieces == pytest.approx((30.81 - 10.44 + 4.0) / period, rel=0.01)
+
+
+def _evidence(ratio):
+    return type("E", (), {"event": ratio > NOISE_FACTOR, "presence": 0.9 if ratio > NOISE_FACTOR else 0.1,
+                          "why": lambda self: f"ratio {ratio}"})()
+
+
+def test_the_reel_lag_joins_the_selected_set_from_its_own_evidence_with_no_share_of_the_gap():
+    sel, g0 = _select({"drogue_lift": 1.0}, floor=0.01, remainder=0.3)
+    none = _none(g0)
+    out = with_reel(sel, none, _evidence(3.0))
+    assert out.chosen.effects == sel.chosen.effects + [EFFECT] and out.steps[-1]["accepted"]
+    assert out.chosen.gap_after_heldout == sel.chosen.gap_after_heldout and out.chosen.shares[EFFECT] == 0.0
+    assert out.chosen.n_params == sel.chosen.n_params + 1 and "reel channel" in out.stopped
+    alone = next(c for c in out.fitted if c.effects == [EFFECT])
+    assert alone.gap_after_heldout == g0
+    refused = with_reel(sel, none, _evidence(1.5))
+    assert refused.chosen is sel.chosen and not refused.steps[-1]["accepted"]
+    assert all("refused" in c.why_not_first for c in refused.fitted if EFFECT in c.effects)
+
+
+def test_turbulence_and_the_reel_lag_share_their_set_s_weight_as_independent_events():
+    from workbench.diagnosis.turbulence import _joined
+    sel, g0 = _select({"tanker_wake": 1.0}, floor=0.01, remainder=0.3)
+    base = sel.chosen
+    joint = _joined(base, _turb(["turbulence"], 0.05))
+    sel = SEL.with_random(sel, _turb(["turbulence"], 0.3 * g0), joint, g0, _est(1.0, 0.1))
+    assert sel.chosen is joint
+    none = _none(g0)
+    sel = with_reel(sel, none, _evidence(3.0))
+    p_t, p_r = 0.8, 0.9
+    ranking = rank_selection(sel, none, 0.01, n_heldout=200, presence={"turbulence": p_t, EFFECT: p_r})
+    assert ranking[0].effects == base.effects + ["turbulence", EFFECT]
+    det = [c for c in ranking if not {"turbulence", EFFECT} & set(c.effects)]
+    w = dict(zip((c.effect for c in det), probabilities([c.gap_after_heldout for c in det],
+                                                         [c.n_params for c in det], 0.01, 200)))
+    by = {tuple(c.effects): c.probability for c in ranking}
+    wake = tuple(base.effects)
+    # every combination of the two on the selected set, the product of their probabilities
+    assert_allclose(by[wake + ("turbulence", EFFECT)], w[base.effect] * p_t * p_r, rtol=1e-12)
+    assert_allclose(by[wake + (EFFECT,)], w[base.effect] * (1 - p_t) * p_r, rtol=1e-12)
+    assert_allclose(by[wake + ("turbulence",)], w[base.effect] * p_t * (1 - p_r), rtol=1e-12)
+    assert_allclose(by[wake], w[base.effect] * (1 - p_t) * (1 - p_r), rtol=1e-12)
+    # so on "none": turbulence alone, the reel lag alone, both, neither
+    assert_allclose(by[("turbulence", EFFECT)], w["none"] * p_t * p_r, rtol=1e-12)
+    assert_allclose(by[(EFFECT,)], w["none"] * (1 - p_t) * p_r, rtol=1e-12)
+    assert_allclose(sum(c.probability for c in ranking), 1.0, rtol=1e-12)
