@@ -108,3 +108,15 @@ def test_turbulence_and_the_reel_lag_share_their_set_s_weight_as_independent_eve
     assert_allclose(by[("turbulence", EFFECT)], w["none"] * p_t * p_r, rtol=1e-12)
     assert_allclose(by[(EFFECT,)], w["none"] * (1 - p_t) * p_r, rtol=1e-12)
     assert_allclose(sum(c.probability for c in ranking), 1.0, rtol=1e-12)
+
+
+def test_the_reel_lag_alone_stays_ahead_of_none_beside_real_everyday_air():
+    # the everyday air moves what it could have done by chance behind "none"; the reel lag,
+    # measured on its own channel, explains none of the gap and is not moved with it
+    from workbench.diagnosis.turbulence import RandomEffect
+    turb = Candidate("turbulence", ["turbulence"], 1, gap_before=0.10, gap_after_heldout=0.09, score=0.095)
+    none = Candidate("none", [], 0, gap_before=0.10, gap_after_heldout=0.10, score=0.10)
+    alone = dataclasses.replace(none, effect=EFFECT, effects=[EFFECT], n_params=1)
+    real = _est(0.6, 0.1)
+    ranked = RandomEffect(turb, real, 0.04).credit_steady([alone, turb, none], accepted=False)
+    assert ranked == [alone, none, turb]

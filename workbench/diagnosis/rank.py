@@ -364,6 +364,11 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
                                                  **({EFFECT: reel.presence} if reel is not None else {})},
                                                 turb.chance_offset),
                                  accepted=sel.chosen is not None and "turbulence" in sel.chosen.effects)
+    if reel is not None and not reel.event:
+        # the refused reel lag alone is "none" with an event the reel channel did not bear out
+        alone = [c for c in ranking if c.effects == [EFFECT]]
+        rest = [c for c in ranking if c.effects != [EFFECT]]
+        ranking = rest[:rest.index(none) + 1] + alone + rest[rest.index(none) + 1:]
     if ranking[0] is none and not none.why:
         none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x what the day's air "
                     f"(turbulence of {turb.estimate.sigma_mps:.2f} m/s) explains by chance along its pattern "

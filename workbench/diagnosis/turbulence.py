@@ -451,7 +451,9 @@ class RandomEffect:
             return ranking
         moved = []
         for c in ranking[:ranking.index(anchor)]:
-            if not c.effects:
+            # "none", or none with the reel lag (measured on the reel's own channel, `reel`):
+            # no steady effect that could absorb the random motion
+            if set(c.effects) <= {"reel_lag"}:
                 continue
             if "turbulence" in c.effects:
                 if not accepted:
