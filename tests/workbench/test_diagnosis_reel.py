@@ -120,3 +120,23 @@ def test_the_reel_lag_alone_stays_ahead_of_none_beside_real_everyday_air():
     real = _est(0.6, 0.1)
     ranked = RandomEffect(turb, real, 0.04).credit_steady([alone, turb, none], accepted=False)
     assert ranked == [alone, none, turb]
+
+
+def test_findings_of_a_family_with_the_reel_lag_alone_ranked_say_what_the_reel_channel_showed():
+    from workbench.diagnosis.findings import findings
+    from workbench.diagnosis.result import FamilyDiagnosis
+    folds = [{"held_out": log, "params": [0.6], "gap_train": 0.05, "gap_heldout": 0.06} for log in ("E7", "E11")]
+    top = Candidate("drogue_lift", ["drogue_lift"], 1, params={"drogue_lift": {"scale": 0.6}},
+                    param_stderr={"drogue_lift": {"scale": 0.01}}, gap_before=0.3, gap_after_heldout=0.06,
+                    shrink_heldout=0.8, probability=0.7, folds=folds)
+    none = Candidate("none", [], 0, gap_before=0.3, gap_after_heldout=0.3, probability=0.0)
+    alone = dataclasses.replace(none, effect=EFFECT, effects=[EFFECT], n_params=1)   # folds: none's, None
+    ev = {"why": "the take-up misses reel kdc10_pod's reference response by 0.089 m RMS", "probability": 0.02}
+    d = FamilyDiagnosis(family="engagement/kdc10/kdc10_pod", kind="engagement", logs=["E7", "E11"],
+                        n_elements=40, gap_definition="", gap_before=0.3, noise_floor=0.01, gap_real=True,
+                        held_out_scheme="", screen={}, not_applicable={}, ranking=[top, none, alone], failed=[],
+                        remaining_unexplained={"gap_m": 0.06, "above_noise_m": 0.059}, gap={}, gap_after_best={},
+                        wall_s=1.0, reel=ev)
+    text = "\n".join(findings(d))
+    assert "drogue_lift fitted without each log in turn" in text
+    assert "Reel lag, from the reel channel: the take-up misses" in text and "0.02" in text

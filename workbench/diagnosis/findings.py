@@ -152,7 +152,8 @@ def findings(d: FamilyDiagnosis) -> list[str]:
     if len(d.logs) > 1 and folds:
         per = ", ".join(f"{f['held_out']} {f['gap_heldout']:.3f} m" for f in folds)
         out.append(f"Held out one at a time, each log's gap with {top.effect} fitted on the others: {per}.")
-        singles = [c for c in d.ranking if c.effect != "none" and len(c.effects) == 1]
+        # a single fitted in folds (not the reel lag alone, "none" with the reel channel's event)
+        singles = [c for c in d.ranking if c.effect != "none" and len(c.effects) == 1 and c.folds]
         for c in singles[:3]:
             vals = [f["params"] for f in c.folds]
             if vals and len(vals[0]) == 1:
@@ -160,6 +161,9 @@ def findings(d: FamilyDiagnosis) -> list[str]:
                 out.append(f"{c.effect} fitted without each log in turn: "
                            + ", ".join(f"without {f['held_out']} {x:.3g}" for f, x in zip(c.folds, v))
                            + f" (held-out gap {c.gap_after_heldout:.3f} m).")
+    if d.reel:
+        out.append(f"Reel lag, from the reel channel: {d.reel['why']}; the probability that the reel took the "
+                   f"hose up otherwise than the program's reel: {d.reel['probability']:.2f}.")
     for c in d.failed:
         out.append(f"{c.effect} could not be scored and is not ranked: {c.message}.")
     return out
