@@ -140,3 +140,29 @@ def test_findings_of_a_family_with_the_reel_lag_alone_ranked_say_what_the_reel_c
     text = "\n".join(findings(d))
     assert "drogue_lift fitted without each log in turn" in text
     assert "Reel lag, from the reel channel: the take-up misses" in text and "0.02" in text
+
+
+def test_with_the_turbulence_refused_every_combination_on_the_set_is_ranked():
+    from workbench.diagnosis.turbulence import _joined
+    sel, g0 = _select({"tanker_wake": 1.0}, floor=0.01, remainder=0.3)
+    base = sel.chosen
+    sel = SEL.with_random(sel, _turb(["turbulence"], 0.3 * g0), _joined(base, _turb(["turbulence"], 0.05)), g0,
+                          _est(0.3, 0.1))
+    assert sel.chosen is base                                     # calmer than light: refused
+    none = _none(g0)
+    ranking = rank_selection(with_reel(sel, none, _evidence(1.5)), none, 0.01, n_heldout=200,
+                             presence={"turbulence": 0.2, EFFECT: 0.1})
+    on_set = {tuple(e for e in c.effects if e not in base.effects) for c in ranking
+              if [e for e in c.effects if e not in ("turbulence", EFFECT)] == base.effects}
+    assert on_set == {(), ("turbulence",), (EFFECT,), ("turbulence", EFFECT)}
+    assert_allclose(sum(c.probability for c in ranking), 1.0, rtol=1e-12)
+
+
+def test_the_program_s_engagements_bear_out_no_reel_event_against_their_own_reel():
+    import json
+    js = json.loads((FLIGHT.parents[2] / "reports" / "diagnose" / "diagnosis.json").read_text())
+    fam = js["families"]["engagement/kdc10/kdc10_pod"]
+    # measured on the committed run: 0.94 x the everyday misfit
+    assert not fam["reel"]["event"] and fam["reel"]["ratio"] < 1.0 and fam["reel"]["probability"] < 1e-3
+    effects = [c["effects"] for c in fam["ranking"]]
+    assert effects.index([EFFECT]) == effects.index([]) + 1 and fam["selection"]["effects"][-1] != EFFECT

@@ -128,20 +128,23 @@ def variant(base: Candidate, evidence: ReelEvidence) -> Candidate:
                                why=None, why_not_first=None, named=None, calibrations=None, probability=None)
 
 
+def _simulated_form(c: Candidate) -> tuple:
+    """`c`'s effects but turbulence, with their fitted values: turbulence
+    joined to a set, or the set it joined, share it."""
+    return tuple((e, tuple(sorted(c.params.get(e, {}).items()))) for e in c.effects if e != "turbulence")
+
+
 def with_reel(sel: Selection, none: Candidate, evidence: ReelEvidence) -> Selection:
     """`sel` with the reel event's candidates: the selected set with it, and
-    `none` with it, and so every candidate turbulence made of either (the set
-    before the turbulence joined it, turbulence alone), so that every
-    combination of the two measured effects on them is ranked; the first of
-    them selected when the evidence is an event. A step of its own, accepted
+    `none` with it, and so every fitted candidate that is either with or
+    without turbulence (the set with the turbulence refused, the set before
+    the turbulence joined it, turbulence alone), so that every combination
+    of the two measured effects on them is ranked; the first of them
+    selected when the evidence is an event. A step of its own, accepted
     or refused from the reel channel, not from the gap (it cuts none of it)."""
-    bases = [none] if sel.chosen is None else [sel.chosen, none]
-    for b in list(bases):
-        if "turbulence" in b.effects:
-            det = [e for e in b.effects if e != "turbulence"]
-            bases += [c for c in sel.fitted if list(c.effects) == det
-                      and all(c.params.get(e) == b.params.get(e) for e in det)][:1]
-    bases += [c for c in sel.fitted if list(c.effects) == ["turbulence"] and c is not sel.chosen]
+    tops = [none] if sel.chosen is None else [sel.chosen, none]
+    forms = {_simulated_form(c) for c in tops}
+    bases = tops + [c for c in sel.fitted if c is not sel.chosen and _simulated_form(c) in forms]
     extra = [variant(c, evidence) for c in bases]
     current = (sel.chosen or none).gap_after_heldout
     k = sel.steps[-1]["step"] + 1 if sel.steps else 1
