@@ -166,3 +166,17 @@ def test_the_program_s_engagements_bear_out_no_reel_event_against_their_own_reel
     assert not fam["reel"]["event"] and fam["reel"]["ratio"] < 1.0 and fam["reel"]["probability"] < 1e-3
     effects = [c["effects"] for c in fam["ranking"]]
     assert effects.index([EFFECT]) == effects.index([]) + 1 and fam["selection"]["effects"][-1] != EFFECT
+
+
+def test_two_fits_of_one_form_keep_their_own_weights_beside_the_measured_variants():
+    # a set fitted twice (a step's refit) ranks twice: each keeps its own weight, and the
+    # measured variants split only the one they stand on, so the whole still sums to 1
+    from workbench.diagnosis.rank import with_random_share
+    a = Candidate("drogue_lift", ["drogue_lift"], 1, params={"drogue_lift": {"scale": 0.6}})
+    b = dataclasses.replace(a)
+    none = Candidate("none", [], 0)
+    ra = dataclasses.replace(b, effect="drogue_lift+reel_lag", effects=["drogue_lift", EFFECT],
+                             params={**b.params, EFFECT: {}})
+    ranking = [a, b, ra, none]
+    with_random_share(ranking, {id(a): 0.5, id(b): 0.3, id(none): 0.2}, {EFFECT: 0.25})
+    assert_allclose([c.probability for c in ranking], [0.5, 0.3 * 0.75, 0.3 * 0.25, 0.2], rtol=1e-12)

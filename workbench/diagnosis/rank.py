@@ -209,9 +209,12 @@ def with_random_share(ranking: list, weights: dict, presence: dict) -> None:
     for c in ranking:
         on_set.setdefault(_form(c), set()).update(set(c.effects) & set(MEASURED))
     for c in ranking:
-        d = by_set.get(_form(c))
-        share = math.prod(presence.get(e, 0.0) if e in c.effects else 1.0 - presence.get(e, 0.0)
-                          for e in on_set[_form(c)])
+        measured = set(c.effects) & set(MEASURED)
+        # a simulated candidate keeps its own weight: another fit of the same form (a step's
+        # refit) is its own evidence; the one its measured variants stand on shares it with them
+        d = by_set.get(_form(c)) if measured else c
+        variants = on_set[_form(c)] if measured or by_set.get(_form(c)) is c else set()
+        share = math.prod(presence.get(e, 0.0) if e in c.effects else 1.0 - presence.get(e, 0.0) for e in variants)
         c.probability = (weights.get(id(d), 0.0) if d is not None else 0.0) * share
 
 
