@@ -13,7 +13,7 @@ from numpy.testing import assert_allclose
 from flighttest import make_record, read_record
 from workbench.diagnosis import select as SEL
 from workbench.diagnosis.rank import probabilities, rank_selection
-from workbench.diagnosis.reel import EFFECT, established, reel_evidence, with_reel
+from workbench.diagnosis.reel import EFFECT, established, reel_evidence, reel_tracks, with_reel
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import NOISE_FACTOR
 
@@ -36,21 +36,21 @@ def _late(rec, delay_s):
 
 
 def test_one_program_engagement_held_to_the_others_reel_is_no_event(logs):
-    ref = established([E11], logs, "kdc10_pod")
-    ev = reel_evidence([E7], logs, "kdc10_pod", ref)
+    ref = established(reel_tracks([E11], logs), "kdc10_pod")
+    ev = reel_evidence(reel_tracks([E7], logs), "kdc10_pod", ref)
     # engagement 7 under engagement 11's response: 0.090 m against 11's own 0.082 m
     assert not ev.event and ev.ratio == pytest.approx(1.11, abs=0.01) and ev.presence < 0.05
-    both = established([E7, E11], logs, "kdc10_pod")
+    both = established(reel_tracks([E7, E11], logs), "kdc10_pod")
     assert both["logs"] == ["EN-KDC10-E11", "EN-KDC10-E7"] and both["everyday_misfit_m"] == pytest.approx(0.090,
                                                                                                           abs=0.001)
 
 
 def test_a_reel_late_by_twice_its_everyday_misfit_is_an_event_with_its_probability(logs):
-    ref = established([E11], logs, "kdc10_pod")
+    ref = established(reel_tracks([E11], logs), "kdc10_pod")
     # measured: 0.2 s later, 1.76 x the everyday misfit (not an event); 0.4 s, 2.91 x; 0.6 s, 4.10 x
     ratios = []
     for delay in (0.2, 0.4, 0.6):
-        ev = reel_evidence(["late"], {"late": _late(logs[E7], delay)}, "kdc10_pod", ref)
+        ev = reel_evidence(reel_tracks(["late"], {"late": _late(logs[E7], delay)}), "kdc10_pod", ref)
         ratios.append(ev.ratio)
         z = math.sqrt(ev.n_pieces) * math.log(ev.ratio / NOISE_FACTOR)
         assert_allclose(ev.presence, 0.5 * math.erfc(-z / math.sqrt(2)), rtol=1e-12)

@@ -68,7 +68,7 @@ from workbench.diagnosis.findings import findings
 from workbench.diagnosis.fit import Components, baseline_held_out, splitter_for
 from workbench.diagnosis.identify import not_separable
 from workbench.diagnosis.remainder import remainder
-from workbench.diagnosis.reel import EFFECT, established, reel_evidence, with_reel
+from workbench.diagnosis.reel import EFFECT, established, reel_evidence, reel_tracks, with_reel
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.select import Selection, acceptance, forward_select, widened, with_random
@@ -185,7 +185,7 @@ def random_presence(estimate) -> float:
 
 # effects not simulated, whose evidence is their own (turbulence: its statistics;
 # the reel lag: the reel channel, `reel`), each with a probability of presence
-MEASURED = ("turbulence", "reel_lag")
+MEASURED = ("turbulence", EFFECT)
 
 
 def _form(c: Candidate) -> tuple:
@@ -409,9 +409,10 @@ def _reel(paths, recs, kind: str, case, excluded: dict):
     if kind != "engagement" or case["model"]["reel"] != "from_log":
         return None, None
     reel_id = recs[paths[0]].info.raw.get("reel")
-    est = established(paths, recs, reel_id)
+    tracks = reel_tracks(paths, recs)
+    est = established(tracks, reel_id)
     ref = fleet.reel_references().get(reel_id)
-    evidence = reel_evidence(paths, recs, reel_id, ref) if ref is not None else None
+    evidence = reel_evidence(tracks, reel_id, ref) if ref is not None else None
     if evidence is not None:
         excluded.pop(EFFECT, None)
     elif EFFECT in excluded:

@@ -34,6 +34,7 @@ from pathlib import Path
 from flighttest import LogError
 from flighttest.metrics.reel import RESPONSE_KEYS, ReelResponse, fit_reel_response, held_out_misfit, misfit
 from flighttest.reel import reel_track
+from flighttest.residual import rms
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.select import Selection
 from workbench.diagnosis.setup import NOISE_FACTOR
@@ -64,7 +65,7 @@ class ReelEvidence:
         ref = self.reference
         verdict = "beyond" if self.event else "within"
         return (f"the take-up misses reel {self.reel}'s reference response (fitted on {', '.join(ref['logs'])}) "
-                f"by {_rms(self.misfit_m.values()):.3f} m RMS, {self.ratio:.2f} x its everyday misfit "
+                f"by {rms(list(self.misfit_m.values())):.3f} m RMS, {self.ratio:.2f} x its everyday misfit "
                 f"{ref['everyday_misfit_m']:.3f} m: {verdict} {NOISE_FACTOR:g} x")
 
     def to_json(self) -> dict:
@@ -73,13 +74,9 @@ class ReelEvidence:
                 "event": self.event, "why": self.why()}
 
 
-def _rms(values) -> float:
-    v = list(values)
-    return math.sqrt(sum(x * x for x in v) / len(v))
-
-
-def _tracks(paths, recs) -> dict:
-    """{log stem: its reel track's arrays} for the logs that have one."""
+def reel_tracks(paths, recs) -> dict:
+    """{log stem: its reel track's arrays} for the logs at `paths` (read in
+    `recs`) that have one: what `established` and `reel_evidence` measure."""
     out = {}
     for p in paths:
         try:
@@ -89,28 +86,27 @@ def _tracks(paths, recs) -> dict:
     return out
 
 
-def established(paths, recs, reel: str) -> dict | None:
+def established(tracks: dict, reel: str) -> dict | None:
     """The reference response a family of engagement logs establishes for its
-    `reel` (`fleet.reel_references`): fitted on all its logs with a reel
-    track, with the everyday misfit (`metrics.reel.held_out_misfit`); None
-    when none has one."""
-    tracks = _tracks(paths, recs)
+    `reel` (`fleet.reel_references`): fitted on all its reel `tracks`
+    (`reel_tracks`), with the everyday misfit (`metrics.reel.held_out_misfit`);
+    None when there are none."""
     if not tracks:
         return None
     response, everyday = held_out_misfit(list(tracks.values()))
     return {"reel": reel, **dataclasses.asdict(response), "everyday_misfit_m": everyday, "logs": sorted(tracks)}
 
 
-def reel_evidence(paths, recs, reel: str, reference: dict) -> ReelEvidence | None:
-    """The family's take-up against `reference` (a `fleet.reel_references`
-    entry for `reel`); None when no log has a reel track."""
-    tracks = _tracks(paths, recs)
+def reel_evidence(tracks: dict, reel: str, reference: dict) -> ReelEvidence | None:
+    """The family's take-up, its reel `tracks` (`reel_tracks`), against
+    `reference` (a `fleet.reel_references` entry for `reel`); None when there
+    are no tracks."""
     if not tracks:
         return None
     ref = ReelResponse(**{k: reference[k] for k in RESPONSE_KEYS})
     m = {log: misfit(ref, *tr) for log, tr in tracks.items()}
     own = {log: dataclasses.asdict(fit_reel_response([tr])) for log, tr in tracks.items()}
-    ratio = _rms(m.values()) / reference["everyday_misfit_m"]
+    ratio = rms(list(m.values())) / reference["everyday_misfit_m"]
     period = 2.0 * math.pi / ref.natural_frequency_rad_s
     n = sum(float(tr[0][-1] - tr[0][0]) for tr in tracks.values()) / period
     z = math.sqrt(n) * math.log(ratio / NOISE_FACTOR) if ratio > 0 else -math.inf

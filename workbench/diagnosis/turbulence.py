@@ -75,6 +75,7 @@ from flighttest.residual import BIN_S, residual, segment_of
 from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import (REPRODUCIBILITY_PROBES, SIM_FAILURES, evaluate, gap, irreproducible,
                                           observed, record, reproducibility_weights, with_prior)
+from workbench.diagnosis.reel import EFFECT as REEL_LAG
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.fit import baseline_held_out, path_and_segment, splitter_for
 from workbench.diagnosis.setup import NOISE_FACTOR, Setup
@@ -453,7 +454,7 @@ class RandomEffect:
         for c in ranking[:ranking.index(anchor)]:
             # "none", or none with the reel lag (measured on the reel's own channel, `reel`):
             # no steady effect that could absorb the random motion
-            if set(c.effects) <= {"reel_lag"}:
+            if set(c.effects) <= {REEL_LAG}:
                 continue
             if "turbulence" in c.effects:
                 if not accepted:
