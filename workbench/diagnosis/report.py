@@ -137,11 +137,13 @@ def _reel_blocks(d: dict) -> list:
     ev = d.get("reel")
     if not ev:
         return []
-    rows = [[Cell(esc(log)), ev["misfit_m"][log], o["delay_s"], o["natural_frequency_rad_s"], o["damping_ratio"],
-             o["gain"]] for log, o in ev["own"].items()]
+    def response(r: dict) -> list:
+        # the dead time to the millisecond: a fit on its bound of 0 returns round-off (1e-19 s)
+        return [Cell(f"{r['delay_s']:.3f}"), r["natural_frequency_rad_s"], r["damping_ratio"], r["gain"]]
+
+    rows = [[Cell(esc(log)), ev["misfit_m"][log]] + response(o) for log, o in ev["own"].items()]
     ref = ev["reference"]
-    rows.append([Cell(f"reference ({esc(', '.join(ref['logs']))})"), ref["everyday_misfit_m"], ref["delay_s"],
-                 ref["natural_frequency_rad_s"], ref["damping_ratio"], ref["gain"]])
+    rows.append([Cell(f"reference ({esc(', '.join(ref['logs']))})"), ref["everyday_misfit_m"]] + response(ref))
     return [Para(f"Reel lag, from the reel channel (the payout is prescribed, so it cuts none of the gap): "
                  f"{esc(ev['why'])}; the probability that the reel took up the hose otherwise than the program's "
                  f"reel: {fmt(ev['probability'])}."),
