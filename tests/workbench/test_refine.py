@@ -130,7 +130,8 @@ def test_a_form_parameter_that_buys_less_than_its_penalty_is_left_at_its_off_val
     assert refine["gain_m"] < PARAM_PENALTY * refine["gap_heldout_before_m"]
     assert not refine["accepted"] and sel.refined == ()
     assert "lateral_offset_m" not in sel.chosen.params["tanker_wake"]
-    assert "refining tanker_wake.lateral_offset_m refused" in sel.fitted[-1].why_not_first
+    refit = next(c for c in sel.fitted if c.step == refine["step"])
+    assert "refining tanker_wake.lateral_offset_m refused" in refit.why_not_first
 
 
 def test_nothing_is_refined_where_the_hardware_holds_the_form_or_its_effect_is_not_selected():

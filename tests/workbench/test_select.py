@@ -15,8 +15,10 @@ from numpy.testing import assert_allclose
 
 from workbench.diagnosis import fit as F
 from workbench.diagnosis import select as SEL
+from workbench.diagnosis.findings import _selection
 from workbench.diagnosis.fit import EffectCalibrator, effects_at
 from workbench.diagnosis.rank import probabilities, rank_selection
+from workbench.diagnosis.report import _selection_blocks
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY, Setup, calibrated_params
 
@@ -220,8 +222,12 @@ def test_forward_selection_adds_what_beats_the_noise_and_refuses_the_rest():
     assert [s["added"] for s in sel.steps] == ["drogue_lift", "tanker_wake", "drogue_drag", "hose_drag"]
     assert [s["accepted"] for s in sel.steps] == [True, True, True, False]
     assert "hose_drag" in sel.stopped and "noise floor" in sel.stopped
-    # every step tries each screened effect not yet selected: 5 + 4 + 3 + 2
-    assert len(sel.fitted) == 14 and [c.step for c in sel.fitted].count(4) == 2
+    # every step tries each screened effect not yet selected: 5 + 4 + 3 + 2; then each
+    # of the three named events is traded for the spare calibration, hose_drag (fitted
+    # at 0.5, beyond its tolerance: no trade names fewer events)
+    assert [c.step for c in sel.fitted].count(4) == 2 and len([c for c in sel.fitted if c.step <= 4]) == 14
+    assert [c.effect for c in sel.fitted if c.step == 5] == [
+        "drogue_lift+drogue_drag+hose_drag", "tanker_wake+drogue_drag+hose_drag", "tanker_wake+drogue_lift+hose_drag"]
     # from step 2 on, each fit starts where the selected set's was fitted
     for job in jobs[5:]:
         assert job[3] is not None and job[3]["folds"][0]
@@ -278,6 +284,112 @@ def test_an_early_stand_in_made_redundant_by_later_effects_is_removed():
     assert_allclose(sel.chosen.gap_after_heldout, floor)
     assert_allclose(sum(sel.chosen.shares.values()), 1.0 - floor / g0, rtol=1e-12)
     assert set(sel.chosen.shares) == {"drogue_drag", "drogue_lift"}
+
+
+def _table_scorer(gaps: dict, values: dict):
+    """A stand-in scorer whose held-out gap is looked up by the set
+    (`gaps`, frozenset -> m) and whose fitted values are `values` per effect."""
+    def score(job):
+        paths, cand, setup, warm = job
+        cal = calibrated_params(cand)
+        x = [values[e] for e, _, _ in cal]
+        g = gaps[frozenset(cand)]
+        return Candidate("+".join(cand), list(cand), len(cal), params=effects_at(cand, x),
+                         param_stderr=effects_at(cand, [0.01] * len(cal)), gap_after_heldout=g, gap_after_train=g,
+                         folds=[{"held_out": "L1", "params": x, "gap_train": g, "gap_heldout": g}])
+    return score
+
+
+@pytest.mark.parametrize("traded_gap, traded", [(1.5, True), (2.5, False)])
+def test_an_event_standing_in_for_a_calibration_is_traded_for_it_where_the_logs_cannot_tell(traded_gap, traded):
+    # a steady wind enters first for part of a drag change and a lift within its
+    # tolerance (1.1 against +/- 25 %); the drag change then explains the rest. Drag
+    # with the lift explain the log as well, within the noise floor: one event, not two.
+    # Beyond the floor (2.5 x it) the logs tell them apart, and the two events stay.
+    floor, g0 = 0.01, 1.5
+    gaps = {frozenset(["steady_wind"]): 0.5, frozenset(["drogue_drag"]): 0.8, frozenset(["drogue_lift"]): 1.1,
+            frozenset(["steady_wind", "drogue_drag"]): floor, frozenset(["steady_wind", "drogue_lift"]): 0.45,
+            frozenset(["drogue_drag", "drogue_lift"]): traded_gap * floor,
+            frozenset(["steady_wind", "drogue_drag", "drogue_lift"]): floor}
+    score = _table_scorer(gaps, {"steady_wind": 2.0, "drogue_drag": 0.5, "drogue_lift": 1.1})
+    sel = SEL.forward_select(["L1"], ["steady_wind", "drogue_drag", "drogue_lift"], Setup(), _serial, g0, floor,
+                             score=score)
+    assert [s.get("added") for s in sel.steps[:3]] == ["steady_wind", "drogue_drag", "drogue_lift"]
+    assert [s["accepted"] for s in sel.steps[:3]] == [True, True, False]
+    if not traded:
+        assert set(sel.chosen.effects) == {"steady_wind", "drogue_drag"} and "traded" not in sel.stopped
+        return
+    assert sel.steps[-1]["traded"] == "steady_wind traded for drogue_lift"
+    assert "steady_wind traded for drogue_lift" in sel.stopped
+    assert set(sel.chosen.effects) == {"drogue_drag", "drogue_lift"}
+    assert_allclose(sel.steps[-1]["gap_heldout_after_m"], traded_gap * floor)
+    # the lift takes the wind's share; together they are the set's shrink
+    assert set(sel.chosen.shares) == {"drogue_drag", "drogue_lift"}
+    assert_allclose(sum(sel.chosen.shares.values()), 1.0 - traded_gap * floor / g0, rtol=1e-12)
+    # the report's table and the findings' sentence say what the step did
+    table, _ = _selection_blocks({"selection": sel.to_json()})
+    assert "traded: steady_wind traded for drogue_lift" in [r[1].text for r in table.rows]
+    said = _selection(types.SimpleNamespace(selection=sel.to_json()))[0]
+    assert "then steady_wind traded for drogue_lift for fewer events (held-out gap 0.010 -> 0.015 m)" in said
+
+
+def test_trades_are_held_to_the_selected_sets_gap_not_to_the_last_trades():
+    # three events selected at 0.100 m; the wind traded for a lift within its tolerance
+    # costs 0.015 m, within the floor (0.02 m); then the wake for a hose drag within its
+    # tolerance another 0.015 m: within the floor of the last trade, beyond the selected set's
+    floor = 0.02
+    gaps = {frozenset(["tanker_wake", "drogue_drag", "drogue_lift"]): 0.115,
+            frozenset(["drogue_drag", "drogue_lift", "hose_drag"]): 0.13}
+    score = _table_scorer(type("Table", (dict,), {"__missing__": lambda self, k: 0.5})(gaps),
+                          {"steady_wind": 2.0, "tanker_wake": 0.5, "drogue_drag": 0.5, "drogue_lift": 1.1,
+                           "hose_drag": 1.1})
+    chosen = score((["L1"], ("tanker_wake", "drogue_drag", "steady_wind"), Setup(), None))
+    chosen.gap_after_heldout = 0.1
+    chosen.shares = {"steady_wind": 0.3, "tanker_wake": 0.4, "drogue_drag": 0.1}
+    steps, fitted = [{"step": 3}], []
+    out, stopped = SEL._trade(chosen, ["L1"], ["steady_wind", "tanker_wake", "drogue_drag", "drogue_lift",
+                                               "hose_drag"], set(), Setup(), _serial, score, floor, 1.0, steps,
+                              fitted, [], "stopped", lambda s: None)
+    assert set(out.effects) == {"tanker_wake", "drogue_drag", "drogue_lift"}
+    assert [s.get("traded") for s in steps[1:]] == ["steady_wind traded for drogue_lift"]
+    # the second round tried the trade and left it: 0.13 m is beyond 0.100 + 0.02 m
+    assert any(set(c.effects) == {"drogue_drag", "drogue_lift", "hose_drag"} for c in fitted)
+    assert_allclose(sum(out.shares.values()), 1.0 - 0.115, rtol=1e-12)
+
+
+def test_a_fit_on_every_log_bounds_the_held_out_gap_from_below(calls):
+    # the prefit a trade must pass: fitted on all logs at once, its gap can only be
+    # below what each log shows fitted on the others
+    job = (PARTS, ("drogue_drag", "tanker_wake"), Setup(), None)
+    held_out = SEL.score_candidate(job).gap_after_heldout
+    assert SEL.fitted_gap(job) <= held_out
+
+
+def test_a_trade_that_misses_the_bar_fitted_on_every_log_is_not_scored_held_out():
+    # the same trades as above, each first fitted on all logs: the prefit's gap is 90 %
+    # of its held-out gap; only those within the bar (0.12 m) are scored held out
+    floor = 0.02
+    gaps = type("Table", (dict,), {"__missing__": lambda self, k: 0.5})(
+        {frozenset(["tanker_wake", "drogue_drag", "drogue_lift"]): 0.115,
+         frozenset(["drogue_drag", "drogue_lift", "hose_drag"]): 0.13})
+    table = _table_scorer(gaps, {"steady_wind": 2.0, "tanker_wake": 0.5, "drogue_drag": 0.5, "drogue_lift": 1.1,
+                                 "hose_drag": 1.1})
+    scored = []
+
+    def score(job):
+        scored.append(frozenset(job[1]))
+        return table(job)
+    chosen = table((["L1"], ("tanker_wake", "drogue_drag", "steady_wind"), Setup(), None))
+    chosen.gap_after_heldout = 0.1
+    chosen.shares = {"steady_wind": 0.3, "tanker_wake": 0.4, "drogue_drag": 0.1}
+    out, _ = SEL._trade(chosen, ["L1"], ["steady_wind", "tanker_wake", "drogue_drag", "drogue_lift", "hose_drag"],
+                        set(), Setup(), _serial, score, floor, 1.0, [{"step": 3}], [], [], "stopped",
+                        lambda s: None, prefit=lambda job: 0.9 * gaps[frozenset(job[1])])
+    assert set(out.effects) == {"tanker_wake", "drogue_drag", "drogue_lift"}
+    # of the six trades of the first round only the one within the bar; of the second,
+    # 0.9 x 0.13 = 0.117 m passes the prefit and fails held out
+    assert scored == [frozenset(["tanker_wake", "drogue_drag", "drogue_lift"]),
+                      frozenset(["drogue_drag", "drogue_lift", "hose_drag"])]
 
 
 def test_an_addition_below_its_parameter_penalty_is_refused():

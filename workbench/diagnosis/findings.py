@@ -45,11 +45,14 @@ def _selection(d: FamilyDiagnosis) -> list[str]:
     sel = d.selection
     if not sel or not sel.get("effects"):
         return []
-    steps = [s for s in sel["steps"] if s["accepted"] and ("added" in s or "refined" in s)]
-    return ["Forward selection added " + ", then ".join(f"{s.get('added') or 'refined ' + s['refined']} "
-                                                         f"({100 * s['share']:.0f} % of the gap, "
-                                                         f"held-out gap {s['gap_heldout_before_m']:.3f} -> "
-                                                         f"{s['gap_heldout_after_m']:.3f} m)" for s in steps)
+    steps = [s for s in sel["steps"] if s["accepted"] and ("added" in s or "refined" in s or "traded" in s)]
+
+    def what(s):
+        gaps = f"held-out gap {s['gap_heldout_before_m']:.3f} -> {s['gap_heldout_after_m']:.3f} m"
+        if "traded" in s:
+            return f"{s['traded']} for fewer events ({gaps})"
+        return f"{s.get('added') or 'refined ' + s['refined']} ({100 * s['share']:.0f} % of the gap, {gaps})"
+    return ["Forward selection added " + ", then ".join(what(s) for s in steps)
             + f"; it stopped because {sel['stopped']}."]
 
 

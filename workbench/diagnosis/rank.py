@@ -71,7 +71,7 @@ from workbench.diagnosis.remainder import remainder
 from workbench.diagnosis.reel import EFFECT, established, reel_evidence, reel_tracks, with_reel
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
-from workbench.diagnosis.select import Selection, acceptance, forward_select, widened, with_random
+from workbench.diagnosis.select import Selection, acceptance, fitted_gap, forward_select, widened, with_random
 from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
                                        NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of,
@@ -321,7 +321,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
     # dominated by a steady offset, yet may be all that is left once that is explained
     pool = order
     forms = refinable(case)
-    sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say, refinable=forms)
+    sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say, refinable=forms,
+                         prefit=fitted_gap)
     # turbulence from its statistics, its random motion measured about the selected set's time runs
     turb = random_candidate(paths, base, sel.chosen, setup, mapper)
     chance = within_chance(sel, turb, floor)
@@ -332,7 +333,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         say(f"{', '.join(chance)} within what turbulence of {turb.estimate.sigma_mps:.2f} m/s explains by chance "
             f"along its pattern: selecting again, each step against the noise floor and that")
         sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say,
-                             chance=turb.chance_offset, refinable=forms)
+                             chance=turb.chance_offset, refinable=forms, prefit=fitted_gap)
         sel.stopped += (f" (each step against the noise floor and what the random motion explains by chance "
                         f"along its pattern: {', '.join(chance)} had been accepted within it)")
         turb = random_candidate(paths, base, sel.chosen, setup, mapper)

@@ -108,10 +108,10 @@ def _shares_text(c) -> str:
 
 def _step_label(s: dict) -> str:
     """What a selection step did: the effect it added, the form parameters it
-    refined or the effect it removed."""
+    refined, the effect it removed or the trade for fewer events."""
     if "added" in s:
         return s["added"]
-    return f"refined: {s['refined']}" if "refined" in s else f"removed: {s['removed']}"
+    return next(f"{k}: {s[k]}" for k in ("refined", "removed", "traded") if k in s)
 
 
 def _selection_blocks(d: dict) -> list:
