@@ -201,7 +201,21 @@ def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
     fewest parameters, then the smallest gap."""
     least = min(c.gap_after_heldout for c in fits)
     similar = [c for c in fits if c.gap_after_heldout <= least + floor]
-    return min(similar, key=lambda c: (len(explain(c.effects, c.params, prior)[0]), c.n_params, c.gap_after_heldout))
+    return min(similar, key=lambda c: simplest(c, prior))
+
+
+def simplest(c: Candidate, prior: dict | None = None) -> tuple:
+    """The order in which the simplest of explanations the logs cannot tell
+    apart comes first: fewest events named (`explanation.explain`), then
+    fewest parameters, then the smallest held-out gap."""
+    return len(explain(c.effects, c.params, prior)[0]), c.n_params, c.gap_after_heldout
+
+
+def _rescaled(shares: dict, gap_after: float, gap_before: float) -> dict:
+    """`shares` ({effect: share}) in their proportions, scaled to add up to
+    the shrink 1 - gap_after / gap_before of the set they belong to."""
+    total = 1.0 - gap_after / gap_before if gap_before else 0.0
+    return {x: v * total / sum(shares.values()) for x, v in shares.items()} if sum(shares.values()) else shares
 
 
 def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
@@ -451,8 +465,7 @@ def _backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fit
         c.step = k
         fitted.append(c)
         left = {x: s for x, s in (chosen.shares or {}).items() if x != e and s is not None}
-        total = 1.0 - without / gap_before if gap_before else 0.0
-        c.shares = {x: s * total / sum(left.values()) for x, s in left.items()} if sum(left.values()) else left
+        c.shares = _rescaled(left, without, gap_before)
         chosen = c
 
 
@@ -488,18 +501,19 @@ def _trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before
     is first fitted on all the logs at once, and scored held out only when
     that gap is within the bar: most trades fail, and their folds are the
     cost (the KDC-10 engagement family took 343 s with them all scored,
-    against 267 s without trades). Shares as `_backward`'s: the traded-in
+    301-318 s with the prefit, 278 s without trades, on one day). Shares as `_backward`'s: the traded-in
     effect takes the traded-out one's, an added one its own gain, scaled to
     the set's shrink."""
+    prior = setup.prior_effects
+
     def named(c):
-        return len(explain(c.effects, c.params, setup.prior_effects)[0])
-    # a trade succeeds only with its calibration within tolerance, about its data sheet's
-    # value: it is polished from there with the others from the set's values, not gridded
-    # over its whole search range (the forward step's cost again)
+        return simplest(c, prior)[0]
     bar = chosen.gap_after_heldout + floor
-    while named(chosen) >= 2:
-        events = explain(chosen.effects, chosen.params, setup.prior_effects)[0]
+    while len(events := explain(chosen.effects, chosen.params, prior)[0]) >= 2:
         spare = [e for e in pool if e in CALIBRATIONS and e not in chosen.effects and e not in dropped]
+        # a trade succeeds only with its calibration within tolerance, about its data sheet's
+        # value: it is polished from there with the others from the set's values, not gridded
+        # over its whole search range (the forward step's cost again)
         swaps = [(e, f, (paths, ordered([x for x in chosen.effects if x != e] + [f]), setup,
                          _at_sheet(warm_start(chosen, setup.refined), f, setup))) for e in events for f in spare]
         if prefit is not None and swaps:
@@ -516,11 +530,11 @@ def _trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before
             if c not in fitted:
                 c.step = k
                 fitted.append(c)
-        ok = [t for t in trades if named(t[2]) < named(chosen) and not implausibility(t[2])
+        ok = [t for t in trades if named(t[2]) < len(events) and not implausibility(t[2])
               and t[2].gap_after_heldout <= bar]
         if not ok:
             return chosen, stopped
-        e, f, c = min(ok, key=lambda t: (named(t[2]), t[2].n_params, t[2].gap_after_heldout))
+        e, f, c = min(ok, key=lambda t: simplest(t[2], prior))
         c.step = k
         what = f"{e} traded for {f}" if e else f"{f} added"
         steps.append({"step": k, "traded": what, "candidate": c.effect,
@@ -532,10 +546,9 @@ def _trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before
         stopped = f"{stopped}; then {what} (as well held out, naming fewer events)"
         chosen.why_not_first = f"step {k}: {what}, naming fewer events within the noise floor"
         shares = {x: s for x, s in (chosen.shares or {}).items() if x != e and s is not None}
-        total = 1.0 - c.gap_after_heldout / gap_before if gap_before else 0.0
         gain = max(chosen.gap_after_heldout - c.gap_after_heldout, 0.0) / gap_before if gap_before else 0.0
         shares[f] = ((chosen.shares or {}).get(e) if e else gain) or 0.0
-        c.shares = {x: s * total / sum(shares.values()) for x, s in shares.items()} if sum(shares.values()) else shares
+        c.shares = _rescaled(shares, c.gap_after_heldout, gap_before)
         chosen = c
     return chosen, stopped
 
