@@ -18,7 +18,7 @@ from workbench.diagnosis import selftest as S
 from workbench.diagnosis.evaluate import (evaluate, gap, pooled_spread, reproducibility_weight, reproducibility_weights,
                                           unweighted)
 from workbench.diagnosis.fit import EffectCalibrator
-from workbench.diagnosis.select import score_candidate
+from workbench.diagnosis.score import score_candidate
 from workbench.diagnosis.setup import Setup, freeze
 from workbench.diagnosis.turbulence import estimate_sigma, log_statistics, statistics_of
 

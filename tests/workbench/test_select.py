@@ -13,14 +13,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
+from workbench.diagnosis import accept as ACC
 from workbench.diagnosis import fit as F
+from workbench.diagnosis import revise as REV
+from workbench.diagnosis import score as SCORE
 from workbench.diagnosis import select as SEL
 from workbench.diagnosis.findings import _selection
 from workbench.diagnosis.fit import EffectCalibrator, effects_at
 from workbench.diagnosis.rank import probabilities, rank_selection
 from workbench.diagnosis.report import _selection_blocks
 from workbench.diagnosis.result import Candidate
-from workbench.diagnosis.setup import MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY, Setup, calibrated_params
+from workbench.diagnosis.setup import (LIGHT_TURBULENCE_MPS, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY, Setup,
+                                       calibrated_params)
 
 FLIGHT = Path(__file__).resolve().parents[2] / "flighttest" / "logs" / "flight"
 
@@ -146,12 +150,12 @@ def test_an_addition_must_beat_the_noise_and_the_parameter_penalty():
 
     def cut(part):   # the held-out gain of an addition that explains `part` (m) of `current`
         return current - math.sqrt(current ** 2 - part ** 2)
-    assert "noise floor" in SEL.acceptance(cut(0.99 * noise), 1, current, floor)
-    assert SEL.acceptance(cut(1.01 * noise), 1, current, floor) is None
+    assert "noise floor" in ACC.acceptance(cut(0.99 * noise), 1, current, floor)
+    assert ACC.acceptance(cut(1.01 * noise), 1, current, floor) is None
     penalty = PARAM_PENALTY * 3 * current
     assert cut(1.01 * noise) < penalty
-    assert "parameter penalty" in SEL.acceptance(cut(1.01 * noise), 3, current, floor)
-    assert SEL.acceptance(1.01 * penalty, 3, current, floor) is None
+    assert "parameter penalty" in ACC.acceptance(cut(1.01 * noise), 3, current, floor)
+    assert ACC.acceptance(1.01 * penalty, 3, current, floor) is None
 
 
 @settings(max_examples=100, deadline=None)
@@ -162,16 +166,16 @@ def test_what_an_effect_explains_does_not_shrink_beside_what_is_left_unexplained
     before = math.sqrt(1.0 + signature ** 2 + remainder ** 2)
     after = math.sqrt(1.0 + remainder ** 2)
     # before^2 - after^2 cancels to a few eps x before^2: its root to sqrt(4 eps) x before
-    assert_allclose(SEL.explained(before - after, before), signature, rtol=1e-9, atol=4 * 1.5e-8 * before)
-    refused = SEL.acceptance(before - after, 0, before, 1.0)
-    assert (refused is None) == (SEL.explained(before - after, before) > NOISE_FACTOR)
+    assert_allclose(ACC.explained(before - after, before), signature, rtol=1e-9, atol=4 * 1.5e-8 * before)
+    refused = ACC.acceptance(before - after, 0, before, 1.0)
+    assert (refused is None) == (ACC.explained(before - after, before) > NOISE_FACTOR)
 
 
 def test_a_candidates_held_out_components_line_up_with_the_baselines_fold_by_fold(calls):
     from workbench.diagnosis.fit import baseline_held_out
     from workbench.diagnosis.rank import separating_components
     for paths in (PARTS, ["a"]):      # leave one log out; one log's two time-block folds
-        c = SEL.score_candidate((paths, ("drogue_drag",), Setup(), None))
+        c = SCORE.score_candidate((paths, ("drogue_drag",), Setup(), None))
         base = baseline_held_out(paths, {p: F.evaluate(p, {}, Setup()) for p in paths})
         assert len(c.held_out) == len(base) == (len(paths) if len(paths) > 1 else 2)
         assert [len(x.r) for x in c.held_out] == [len(x.r) for x in base]
@@ -185,7 +189,7 @@ def test_a_candidates_held_out_components_line_up_with_the_baselines_fold_by_fol
 # ---------------------------------------------------------------- forward selection
 
 def _scorer(explained: dict, floor: float, remainder: float = 0.0, jobs: list | None = None):
-    """A stand-in for `select.score_candidate`: a set's held-out gap is the
+    """A stand-in for `score.score_candidate`: a set's held-out gap is the
     RMS of the noise floor, what no effect explains (`remainder`) and each
     effect's part (`explained`) it leaves out; its fitted values 0.5 each."""
     def score(job):
@@ -347,7 +351,7 @@ def test_trades_are_held_to_the_selected_sets_gap_not_to_the_last_trades():
     chosen.gap_after_heldout = 0.1
     chosen.shares = {"steady_wind": 0.3, "tanker_wake": 0.4, "drogue_drag": 0.1}
     steps, fitted = [{"step": 3}], []
-    out, stopped = SEL._trade(chosen, ["L1"], ["steady_wind", "tanker_wake", "drogue_drag", "drogue_lift",
+    out, stopped = REV.trade(chosen, ["L1"], ["steady_wind", "tanker_wake", "drogue_drag", "drogue_lift",
                                                "hose_drag"], set(), Setup(), _serial, score, floor, 1.0, steps,
                               fitted, [], "stopped", lambda s: None)
     assert set(out.effects) == {"tanker_wake", "drogue_drag", "drogue_lift"}
@@ -361,8 +365,8 @@ def test_a_fit_on_every_log_bounds_the_held_out_gap_from_below(calls):
     # the prefit a trade must pass: fitted on all logs at once, its gap can only be
     # below what each log shows fitted on the others
     job = (PARTS, ("drogue_drag", "tanker_wake"), Setup(), None)
-    held_out = SEL.score_candidate(job).gap_after_heldout
-    assert SEL.fitted_gap(job) <= held_out
+    held_out = SCORE.score_candidate(job).gap_after_heldout
+    assert SCORE.fitted_gap(job) <= held_out
 
 
 def test_a_trade_that_misses_the_bar_fitted_on_every_log_is_not_scored_held_out():
@@ -382,7 +386,7 @@ def test_a_trade_that_misses_the_bar_fitted_on_every_log_is_not_scored_held_out(
     chosen = table((["L1"], ("tanker_wake", "drogue_drag", "steady_wind"), Setup(), None))
     chosen.gap_after_heldout = 0.1
     chosen.shares = {"steady_wind": 0.3, "tanker_wake": 0.4, "drogue_drag": 0.1}
-    out, _ = SEL._trade(chosen, ["L1"], ["steady_wind", "tanker_wake", "drogue_drag", "drogue_lift", "hose_drag"],
+    out, _ = REV.trade(chosen, ["L1"], ["steady_wind", "tanker_wake", "drogue_drag", "drogue_lift", "hose_drag"],
                         set(), Setup(), _serial, score, floor, 1.0, [{"step": 3}], [], [], "stopped",
                         lambda s: None, prefit=lambda job: 0.9 * gaps[frozenset(job[1])])
     assert set(out.effects) == {"tanker_wake", "drogue_drag", "drogue_lift"}
@@ -496,7 +500,7 @@ def test_an_addition_that_explains_just_the_selections_bar_weighs_the_same_as_th
     before = math.hypot(after, bar)
     for k, refused in ((0.999, True), (1.001, False)):      # the bar: refused just below, accepted above
         b = math.hypot(after, k * bar)
-        assert (SEL.acceptance(b - after, 0, b, wide) is not None) == refused
+        assert (ACC.acceptance(b - after, 0, b, wide) is not None) == refused
     s2 = max(floor, after) ** 2
     n_cap = 2.0 / bar ** 2 * s2
     assert_allclose(probabilities([before, after], [1, 2], floor, more * n_cap, chance), [0.5, 0.5], rtol=1e-6)
@@ -507,7 +511,7 @@ def test_an_addition_that_explains_just_the_selections_bar_weighs_the_same_as_th
 
 def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_sets_weight():
     from workbench.diagnosis.rank import random_presence
-    light = SEL.LIGHT_TURBULENCE_MPS
+    light = LIGHT_TURBULENCE_MPS
     assert random_presence(_est(light, 0.1)) == pytest.approx(0.5)
     assert random_presence(_est(light + 0.2, 0.1)) == pytest.approx(0.97725, abs=1e-5)   # Phi(2)
     assert random_presence(_est(2.0, 0.1, real=False)) == 0.0 and random_presence(None) == 0.0
@@ -571,13 +575,13 @@ def test_the_best_of_several_additions_clears_its_chance_gain_as_often_as_one_cl
     # Sidak: the largest of `tried` independent normal chance gains is beyond z as often as one is
     # beyond NOISE_FACTOR standard deviations
     from scipy.stats import norm
-    z = SEL.chance_quantile(tried)
+    z = ACC.chance_quantile(tried)
     assert_allclose(1.0 - (1.0 - 2.0 * norm.sf(z)) ** tried, 2.0 * norm.sf(NOISE_FACTOR), rtol=1e-9)
     assert z >= NOISE_FACTOR
     # the widened floor: NOISE_FACTOR x it is the noise's bar and z chance offsets, in quadrature
-    assert_allclose(NOISE_FACTOR * SEL.widened(0.01, lambda a, b: 0.03, None, None, tried),
+    assert_allclose(NOISE_FACTOR * ACC.widened(0.01, lambda a, b: 0.03, None, None, tried),
                     math.hypot(NOISE_FACTOR * 0.01, z * 0.03), rtol=1e-12)
-    assert SEL.widened(0.01, None, None, None, tried) == 0.01
+    assert ACC.widened(0.01, None, None, None, tried) == 0.01
 
 
 def test_a_scanned_transient_is_held_to_the_best_of_every_time_it_was_tried_at():
@@ -589,10 +593,10 @@ def test_a_scanned_transient_is_held_to_the_best_of_every_time_it_was_tried_at()
     wind = Candidate("drogue_lift+steady_wind+gust", ["drogue_lift", "steady_wind", "gust"], 5, looks=27)
     chance = lambda a, b: 0.03   # noqa: E731
     for before, after in ((base, gust), (None, gust)):
-        assert_allclose(NOISE_FACTOR * SEL.widened(0.01, chance, before, after, 7),
-                        math.hypot(NOISE_FACTOR * 0.01, SEL.chance_quantile(7 * 27) * 0.03), rtol=1e-12)
-    assert_allclose(SEL.widened(0.01, chance, gust, wind, 7), SEL.widened(0.01, chance, None, None, 7), rtol=1e-12)
-    assert SEL.chance_quantile(7 * 27) > SEL.chance_quantile(7) + 0.9
+        assert_allclose(NOISE_FACTOR * ACC.widened(0.01, chance, before, after, 7),
+                        math.hypot(NOISE_FACTOR * 0.01, ACC.chance_quantile(7 * 27) * 0.03), rtol=1e-12)
+    assert_allclose(ACC.widened(0.01, chance, gust, wind, 7), ACC.widened(0.01, chance, None, None, 7), rtol=1e-12)
+    assert ACC.chance_quantile(7 * 27) > ACC.chance_quantile(7) + 0.9
 
 
 def test_a_random_motion_explains_by_chance_only_what_lies_along_a_steps_own_pattern():
@@ -752,7 +756,7 @@ def test_turbulence_joins_the_selected_set_on_the_evidence_of_its_random_motion(
     assert out.chosen is sel.chosen and not out.steps[-1]["accepted"] and joint in out.fitted
     assert "no random motion" in joint.why_not_first
     # calmer than light, even if light lies within two standard errors: the air of every flight
-    light = SEL.LIGHT_TURBULENCE_MPS
+    light = LIGHT_TURBULENCE_MPS
     calm = _turb(sel.chosen.effects + ["turbulence"], 0.05)
     out = SEL.with_random(sel, alone, calm, g0, _est(0.9 * light, 0.2 * light))
     assert out.chosen is sel.chosen and "calmer than light turbulence" in calm.why_not_first
@@ -821,12 +825,12 @@ def test_within_the_noise_a_step_takes_the_addition_naming_fewest_events():
     floor = 0.007
     calibrated = _fit({"drogue_lift": {"scale": 1.1}, "drogue_drag": {"scale": 1.5}}, 0.0160)
     wind = _fit({"drogue_drag": {"scale": 1.5}, "steady_wind": {"vertical_mps": 3.0, "lateral_mps": 0.0}}, 0.0158)
-    assert SEL.choose([wind, calibrated], floor) is calibrated
+    assert ACC.choose([wind, calibrated], floor) is calibrated
     # beyond the noise floor the data decide
-    assert SEL.choose([_fit(calibrated.params, 0.0158 + 1.01 * floor), wind], floor) is wind
+    assert ACC.choose([_fit(calibrated.params, 0.0158 + 1.01 * floor), wind], floor) is wind
     # the same events: fewer parameters, then the smaller gap
     lift = _fit({"drogue_drag": {"scale": 1.5}, "drogue_lift": {"scale": 0.5}}, 0.0159)
-    assert SEL.choose([wind, lift], floor) is lift
+    assert ACC.choose([wind, lift], floor) is lift
 
 
 def test_a_simpler_addition_that_explains_only_the_noise_does_not_stop_a_step_another_earns():
@@ -838,8 +842,8 @@ def test_a_simpler_addition_that_explains_only_the_noise_does_not_stop_a_step_an
     lag = _fit({"drogue_lift": {"scale": 1.05}, "sensor_lag": {"delay_s": -0.017}}, 0.0314)
     gust = _fit({"drogue_lift": {"scale": 1.05}, "gust": {"vertical_mps": 1.1, "start_s": 14.9}}, 0.0280)
     before = _fit({"drogue_lift": {"scale": 1.05}}, current)
-    assert SEL.choose([lag, gust], floor) is lag
-    assert SEL.acceptance(current - lag.gap_after_heldout, 1, current, floor)
+    assert ACC.choose([lag, gust], floor) is lag
+    assert ACC.acceptance(current - lag.gap_after_heldout, 1, current, floor)
     assert SEL._take([lag, gust], before, current, floor) == (gust, None)
     # none earns its place: the step is refused on the one `choose` prefers, with its reason
     weak = _fit(gust.params, 0.0312)

@@ -16,8 +16,15 @@ Modules by concern, data flowing down the list:
   residual they span.
 * `identify`: which screened effects the logs cannot tell apart (principal
   angles between their noise-weighted sensitivity patterns).
-* `select`: forward selection of several effects at once (warm-started
-  fits, the acceptance rule, each selected effect's share of the gap).
+* `score`: a candidate fitted per fold and scored held out (warm-started
+  at a set's fitted values); fitted on all logs, the bound of that gap.
+* `accept`: the acceptance rule (the noise floor, widened by what a random
+  motion explains by chance; the parameter penalty) and which of
+  explanations the logs cannot tell apart comes first.
+* `select`: forward selection of several effects at once (each selected
+  effect's share of the gap).
+* `revise`: the selected set revised once selection stops (form parameters
+  refined, redundant events dropped, an event traded for a calibration).
 * `turbulence`: turbulence from its statistics (the drogue's random motion
   above the tracker noise against a seeded Dryden ensemble): its candidate,
   sigma with its error, and the steady floor a deterministic effect must beat.

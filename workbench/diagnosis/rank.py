@@ -36,7 +36,7 @@ several at once by forward selection, score each held out and rank them.
    beat it too: when a selected step's gain is within the noise floor and
    what the turbulence explains by chance along the step's pattern (at
    Sidak's quantile for the best of the additions the step tried,
-   `select.chance_quantile`), added in quadrature (`within_chance`,
+   `accept.chance_quantile`), added in quadrature (`within_chance`,
    `turbulence.RandomEffect.chance_offset`), the
    selection runs again with every step held to that (a random motion's low
    frequencies lie alike in both halves of a log, so an effect whose pattern
@@ -62,6 +62,7 @@ from typing import Callable
 
 from solver.effects import EFFECTS
 from workbench.config import defaults
+from workbench.diagnosis.accept import acceptance, widened
 from workbench.diagnosis.evaluate import evaluate, gap, observed, record
 from workbench.diagnosis.explanation import events_of, explain, implausibility
 from workbench.diagnosis.findings import findings
@@ -71,7 +72,8 @@ from workbench.diagnosis.remainder import remainder
 from workbench.diagnosis.reel import EFFECT, established, reel_evidence, reel_tracks, with_reel
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
-from workbench.diagnosis.select import Selection, acceptance, fitted_gap, forward_select, widened, with_random
+from workbench.diagnosis.score import fitted_gap
+from workbench.diagnosis.select import Selection, forward_select, with_random
 from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
                                        NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of,
@@ -138,7 +140,7 @@ def probabilities(gaps, n_params, floor: float, n, chance=0.0) -> list[float]:
     read as evidence; Burnham & Anderson's quasi-likelihood), plus 2 per
     parameter. The evidence per m^2, n / s^2, is at most
     2 / (NOISE_FACTOR^2 (floor^2 + chance^2)): the selection's own test
-    (`select.acceptance`, against the floor `select.widened` by what a real
+    (`accept.acceptance`, against the floor `accept.widened` by what a real
     random motion explains by chance, `chance` in m, one for all or one per
     candidate along the pattern that tells it from the best), so that a
     candidate explaining NOISE_FACTOR x that floor more than another, with
@@ -203,7 +205,7 @@ def with_random_share(ranking: list, weights: dict, presence: dict) -> None:
     over the other measured effects ranked on that set; one whose simulated
     set is not ranked gets 0."""
     # a set is its effects and their fitted parameters: a refinement of its form
-    # (`select._refine`) fits the same effects with one parameter more
+    # (`revise.refine`) fits the same effects with one parameter more
     by_set = {_form(c): c for c in ranking if not set(c.effects) & set(MEASURED)}
     on_set: dict = {}
     for c in ranking:

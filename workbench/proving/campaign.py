@@ -61,7 +61,7 @@ from workbench.diagnosis.evaluate import evaluate, gap, record
 from workbench.diagnosis.explanation import within_tolerance
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.rank import diagnose_family
-from workbench.diagnosis.select import score_candidate
+from workbench.diagnosis.score import score_candidate
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
 from workbench.proving import FAMILIES
