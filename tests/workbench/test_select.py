@@ -186,6 +186,36 @@ def test_a_candidates_held_out_components_line_up_with_the_baselines_fold_by_fol
         assert 1.0 <= separating_components(c, none, -1.0) <= sum(len(x.r) for x in base)
 
 
+def test_a_candidates_fits_mapped_side_by_side_give_the_values_of_one_job_each(calls, monkeypatch):
+    from workbench.parallel import Mapper
+    jobs = [(PARTS, ("drogue_drag",), Setup(), None), (["a"], ("drogue_drag",), Setup(), None),
+            (PARTS, ("drogue_drag", "tanker_wake"), Setup(), None)]
+    one_each = [SCORE.score_candidate(job) for job in jobs]
+    seen = []
+    # two worker processes: forked, they see the synthetic evaluate too
+    side_by_side = SCORE.mapped(Mapper(workers=2), SCORE.score_candidate, jobs, progress=seen.append)
+    assert seen == side_by_side            # each reported once, in job order
+    for a, b in zip(one_each, side_by_side):
+        assert (a.effect, a.n_params, a.looks, a.params, a.param_stderr) == (b.effect, b.n_params, b.looks, b.params,
+                                                                           b.param_stderr)
+        assert (a.gap_after_train, a.gap_after_heldout, a.gap_after_all_fit_per_log, a.folds) == (
+            b.gap_after_train, b.gap_after_heldout, b.gap_after_all_fit_per_log, b.folds)
+        for x, y in zip(a.held_out, b.held_out):
+            assert_allclose(x.r, y.r, rtol=0, atol=0)
+    # a fit that fails to simulate fails its candidate, and only its, with the solver's message
+    synthetic = F.evaluate
+
+    def failing(path, effects, setup):
+        if "tanker_wake" in effects and path == "bb":
+            raise F.SimulationFailed(path, effects, FloatingPointError("diverged at t = 1.2 s, element 7"))
+        return synthetic(path, effects, setup)
+    monkeypatch.setattr(F, "evaluate", failing)
+    ok, boom = SCORE.mapped(_serial, SCORE.score_candidate, [jobs[0], jobs[2]])
+    assert ok.success and ok.gap_after_heldout == one_each[0].gap_after_heldout
+    assert not boom.success and "diverged at t = 1.2 s, element 7" in boom.message
+    assert boom.effect == "+".join(jobs[2][1])
+
+
 # ---------------------------------------------------------------- forward selection
 
 def _scorer(explained: dict, floor: float, remainder: float = 0.0, jobs: list | None = None):

@@ -13,7 +13,7 @@ from solver.effects import EFFECTS
 from workbench.diagnosis.accept import acceptance, rescaled, simplest, widened
 from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.fit import ordered
-from workbench.diagnosis.score import warm_start
+from workbench.diagnosis.score import mapped, warm_start
 from workbench.diagnosis.setup import calibrated_params
 
 
@@ -28,7 +28,7 @@ def refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted
     if not pairs:
         return chosen, setup
     wider = dataclasses.replace(setup, refined=setup.refined + pairs)
-    (c,) = mapper(score, [(paths, tuple(chosen.effects), wider, warm_start(chosen, setup.refined))])
+    (c,) = mapped(mapper, score, [(paths, tuple(chosen.effects), wider, warm_start(chosen, setup.refined))])
     if not c.success:
         failed.append(c)
         return chosen, setup
@@ -73,7 +73,7 @@ def backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitt
             return chosen, stopped
         warm = warm_start(chosen, setup.refined)
         jobs = [(paths, ordered(x for x in chosen.effects if x != e), setup, warm) for e in events]
-        out = list(mapper(score, [j for j in jobs if j[1]])) if any(j[1] for j in jobs) else []
+        out = mapped(mapper, score, [j for j in jobs if j[1]])
         by_set = {tuple(c.effects): c for c in out}
         costs = []
         for e, job in zip(events, jobs):
@@ -155,7 +155,7 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
             # fitted on everything first: a trade that misses the bar there misses it held out
             swaps = [t for t, g in zip(swaps, mapper(prefit, [job for _, _, job in swaps]))
                      if g is not None and g <= bar]
-        out = list(mapper(score, [job for _, _, job in swaps])) if swaps else []
+        out = mapped(mapper, score, [job for _, _, job in swaps])
         failed += [c for c in out if not c.success]
         trades = [(e, f, c) for (e, f, _), c in zip(swaps, out) if c.success]
         trades += [(None, f, c) for f in spare for c in fitted

@@ -50,7 +50,7 @@ from workbench.diagnosis.explanation import implausibility
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.revise import backward, refine, trade
-from workbench.diagnosis.score import score_candidate, warm_start
+from workbench.diagnosis.score import mapped, score_candidate, warm_start
 from workbench.diagnosis.setup import LIGHT_TURBULENCE_MPS, MAX_EFFECTS, PARAM_PENALTY
 
 
@@ -152,7 +152,7 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         # hardware; fitted first so that no event has to stand in for them and
         # none is refused for sharing the gap with them. Kept when they cut the
         # held-out gap at all: what they leave is the events' to explain.
-        (c,) = mapper(score, [(paths, standing, setup, None)])
+        (c,) = mapped(mapper, score, [(paths, standing, setup, None)])
         if not c.success:
             failed.append(c)
         else:
@@ -180,7 +180,7 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         warm = warm_start(chosen) if chosen else None
         jobs = [(paths, ordered(selected + (e,)), setup, warm) for e in rest]
         say(f"step {k}: " + ", ".join("+".join(j[1]) for j in jobs))
-        out = list(mapper(score, jobs, progress=lambda c: say(f"fitted {c.effect}")))
+        out = mapped(mapper, score, jobs, progress=lambda c: say(f"fitted {c.effect}"))
         failed += [c for c in out if not c.success]
         dropped |= {next(e for e in c.effects if e not in selected) for c in out if not c.success}
         ok = [c for c in out if c.success]
