@@ -426,6 +426,37 @@ def test_a_trade_that_misses_the_bar_fitted_on_every_log_is_not_scored_held_out(
                       frozenset(["drogue_drag", "drogue_lift", "hose_drag"])]
 
 
+def test_a_trade_whose_set_a_step_fitted_on_every_log_is_not_fitted_there_again():
+    # two logs: the wind traded for a lift, the set a step already fitted on all logs
+    # (its alternative: 0.3 m there, beyond the bar) is left without a prefit; a set
+    # fitted with a parameter fewer (before a refinement) does not count
+    floor = 0.02
+    gaps = type("Table", (dict,), {"__missing__": lambda self, k: 0.5})(
+        {frozenset(["tanker_wake", "drogue_drag", "drogue_lift"]): 0.115})
+    table = _table_scorer(gaps, {"steady_wind": 2.0, "tanker_wake": 0.5, "drogue_drag": 0.5, "drogue_lift": 1.1,
+                                 "hose_drag": 1.1})
+    chosen = table((["L1", "L2"], ("tanker_wake", "drogue_drag", "steady_wind"), Setup(), None))
+    chosen.gap_after_heldout = 0.1
+    chosen.shares = {"steady_wind": 0.3, "tanker_wake": 0.4, "drogue_drag": 0.1}
+    known = table((["L1", "L2"], ("tanker_wake", "drogue_drag", "drogue_lift"), Setup(), None))
+    known.gap_after_all_fit_per_log = {"L1": 0.3, "L2": 0.3}
+    fewer = table((["L1", "L2"], ("drogue_drag", "drogue_lift", "steady_wind"), Setup(), None))
+    fewer.gap_after_all_fit_per_log, fewer.n_params = {"L1": 0.01, "L2": 0.01}, fewer.n_params - 1
+    prefitted = []
+
+    def prefit(job):
+        prefitted.append(frozenset(job[1]))
+        return 0.9 * gaps[frozenset(job[1])]
+    out, _ = REV.trade(chosen, ["L1", "L2"], ["steady_wind", "tanker_wake", "drogue_drag", "drogue_lift",
+                                              "hose_drag"], set(), Setup(), _serial, table, floor, 1.0,
+                       [{"step": 3}], [known, fewer], [], "stopped", lambda s: None, prefit=prefit)
+    # the trade within the bar held out was never tried: its set's all-logs fit missed the bar
+    assert out is chosen
+    assert frozenset(["tanker_wake", "drogue_drag", "drogue_lift"]) not in prefitted
+    assert frozenset(["drogue_drag", "drogue_lift", "steady_wind"]) in prefitted
+    assert len(prefitted) == 5      # three events x two calibrations, one known
+
+
 def test_an_addition_below_its_parameter_penalty_is_refused():
     # a model-form remainder no effect explains: steady_wind's two parameters buy
     # less than 2 x PARAM_PENALTY of the gap left, above the noise

@@ -8,9 +8,11 @@ set's shrink."""
 from __future__ import annotations
 
 import dataclasses
+import math
 
 from solver.effects import EFFECTS
 from workbench.diagnosis.accept import acceptance, rescaled, simplest, widened
+from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.explanation import explain, implausibility
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.score import mapped, warm_start
@@ -133,10 +135,12 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
     the last trade's: a floor conceded per trade would add up, measured on
     a proving-ground engagement, two trades 0.076 -> 0.087 -> 0.099 m
     against a floor of 0.021 m). Given `prefit` (`fitted_gap`), each trade
-    is first fitted on all the logs at once, and scored held out only when
-    that gap is within the bar: most trades fail, and their folds are the cost (the
+    is first fitted on all the logs at once (unless a step fitted its set
+    already: `_fitted_already`), and scored held out only when that gap is
+    within the bar: most trades fail, and their folds are the cost (the
     KDC-10 engagement family took 343 s with them all scored, 301-318 s with
-    the prefit, 278 s without trades, on one day). Shares as `backward`'s:
+    the prefit, 278 s without trades, on one day; 285 s with the prefit
+    where a step had not fitted the set, and the fits side by side). Shares as `backward`'s:
     the traded-in effect takes the traded-out one's, an added one its own
     gain, scaled to the set's shrink."""
     prior = setup.prior_effects
@@ -153,8 +157,11 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
                          _at_sheet(warm_start(chosen, setup.refined), f, setup))) for e in events for f in spare]
         if prefit is not None and swaps:
             # fitted on everything first: a trade that misses the bar there misses it held out
-            swaps = [t for t, g in zip(swaps, mapper(prefit, [job for _, _, job in swaps]))
-                     if g is not None and g <= bar]
+            gaps = _fitted_already(swaps, fitted, paths, setup)
+            todo = [i for i, g in enumerate(gaps) if g is None]
+            for i, g in zip(todo, mapper(prefit, [swaps[i][2] for i in todo])):
+                gaps[i] = g if g is not None else math.inf
+            swaps = [t for t, g in zip(swaps, gaps) if g <= bar]
         out = mapped(mapper, score, [job for _, _, job in swaps])
         failed += [c for c in out if not c.success]
         trades = [(e, f, c) for (e, f, _), c in zip(swaps, out) if c.success]
@@ -186,6 +193,22 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
         c.shares = rescaled(shares, c.gap_after_heldout, gap_before)
         chosen = c
     return chosen, stopped
+
+
+def _fitted_already(swaps: list, fitted: list, paths: list, setup) -> list:
+    """Each trade's gap fitted on all of several logs where a step fitted its
+    set already, with as many parameters (trading the last event selected
+    gives that step's alternatives), else None: that set is not fitted on
+    everything again to learn whether it can reach the bar (measured on the
+    KDC-10 engagement family, half of its six trades). One log has no
+    all-logs fit (its parameters are chosen among its folds')."""
+    n = {frozenset(c.effects): c for c in fitted if c.success and c.gap_after_all_fit_per_log and len(paths) > 1}
+    out = []
+    for _, _, job in swaps:
+        c = n.get(frozenset(job[1]))
+        ok = c is not None and c.n_params == len(calibrated_params(job[1], setup.refined))
+        out.append(gap(list(c.gap_after_all_fit_per_log.values())) if ok else None)
+    return out
 
 
 def _at_sheet(warm: dict, effect: str, setup) -> dict:
