@@ -115,8 +115,9 @@ def _step_label(s: dict) -> str:
 
 
 def _selection_blocks(d: dict) -> list:
-    """The forward selection: each step's best addition, its gain against the
-    gap it started from, the verdict and the share; and why it stopped. A
+    """The forward selection: each step's change (its best addition; then
+    what the revision refined, removed or traded), its gain against the gap
+    it started from, the verdict and the share; and why it stopped. A
     diagnosis.json written before forward selection has none."""
     sel = d.get("selection")
     if not sel:
@@ -124,7 +125,7 @@ def _selection_blocks(d: dict) -> list:
     rows = [[s["step"], Cell(esc(_step_label(s))), s["gap_heldout_before_m"], s["gap_heldout_after_m"], s["gain_m"],
              s["new_params"], Cell("accepted" if s["accepted"] else "refused"),
              None if s["share"] is None else 100 * s["share"]] for s in sel["steps"]]
-    return [Table(["step", "best addition", "held-out gap before (m)", "after (m)", "gain (m)", "new parameters",
+    return [Table(["step", "change", "held-out gap before (m)", "after (m)", "gain (m)", "new parameters",
                    "verdict", "share of the gap (%)"], rows, [6, 22, 14, 12, 12, 10, 10, 14],
                   title="Forward selection"),
             Para(f"Selected: {esc(' + '.join(sel['effects']) or 'none')}; stopped: {esc(sel['stopped'])}.")]
@@ -460,7 +461,11 @@ def report_blocks(diag: dict, title: str = "Sim-to-real gap diagnosis") -> list:
                 f"explains of the gap (in quadrature) beats {NOISE_FACTOR:g}× the noise floor and its cut beats "
                 f"{PARAM_PENALTY:g} × its new parameters × the gap left (once turbulence's random motion is real, "
                 f"the noise includes what it explains by chance along the addition's own pattern, from an "
-                f"ensemble of seeded runs, at Šidák's quantile for the best of the additions tried); the "
+                f"ensemble of seeded runs, at Šidák's quantile for the best of the additions tried). Once it "
+                f"stops, the selected set is revised: a form parameter the hardware lets the logs tell is "
+                f"refined when it earns its place by the same rule, an event the later ones made redundant is "
+                f"removed, and an event is traded for a calibration within its data sheet's tolerance where the "
+                f"held-out gap stays within the noise floor of the selected set's (fewer events named). The "
                 f"selected set ranks first, then the other "
                 f"candidates fitted on the way by held-out gap × (1 + {PARAM_PENALTY:g} per parameter). A gap under "
                 f"{NOISE_FACTOR:g}× its noise floor is noise. Probabilities: Akaike weights of the held-out "
