@@ -62,7 +62,7 @@ def test_probabilities_are_akaike_weights_of_the_held_out_gaps():
     w = probabilities([0.1, 0.1], [1, 2], floor=0.05, n=100)
     assert_allclose(w, [1 / (1 + math.exp(-1)), math.exp(-1) / (1 + math.exp(-1))], rtol=1e-12)
     # best gap at the noise floor, over 100 components: n / floor^2 is 200 x the selection's own
-    # test, 2 / (NOISE_FACTOR floor)^2 per m^2 (`select.acceptance`); the evidence stops there,
+    # test, 2 / (NOISE_FACTOR floor)^2 per m^2 (`accept.acceptance`); the evidence stops there,
     # Delta = 2 / 0.01 * 0.0011 = 0.22 (not 100 * 0.0011 / 0.0025 = 44)
     w = probabilities([0.05, 0.06], [1, 1], floor=0.05, n=100)
     d = 2.0 / (NOISE_FACTOR * 0.05) ** 2 * (0.06 ** 2 - 0.05 ** 2)
