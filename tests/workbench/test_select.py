@@ -457,6 +457,34 @@ def test_a_trade_whose_set_a_step_fitted_on_every_log_is_not_fitted_there_again(
     assert len(prefitted) == 5      # three events x two calibrations, one known
 
 
+def test_calibrations_within_tolerance_count_as_one_explanation_for_the_trade_and_for_choose():
+    # a log with no event: a drogue lift and drag within their tolerances (1.1 of +/- 25 %,
+    # 0.95 of +/- 10 %) explain it. Their set names no event beyond tolerance: nothing to
+    # trade, though `explain` names the two as the only explanation there is; a hose
+    # stiffness at 0.13 x its bench value added (an event) is not "fewer events" than them
+    floor = 0.01
+    gaps = type("Table", (dict,), {"__missing__": lambda self, k: 0.5})(
+        {frozenset(["drogue_lift", "drogue_drag"]): 0.0199,
+         frozenset(["drogue_lift", "drogue_drag", "hose_stiffness"]): 0.0197,
+         frozenset(["drogue_lift", "drogue_drag", "hose_drag"]): 0.0196})
+    table = _table_scorer(gaps, {"drogue_lift": 1.1, "drogue_drag": 0.95, "hose_drag": 1.05, "hose_stiffness": 0.13})
+    chosen = table((["L1"], ("drogue_lift", "drogue_drag"), Setup(), None))
+    chosen.shares = {"drogue_lift": 0.8, "drogue_drag": 0.1}
+    stiff = table((["L1"], ("drogue_lift", "drogue_drag", "hose_stiffness"), Setup(), None))
+    hose = table((["L1"], ("drogue_lift", "drogue_drag", "hose_drag"), Setup(), None))
+    steps = [{"step": 3}]
+    out, stopped = REV.trade(chosen, ["L1"], ["drogue_lift", "drogue_drag", "hose_stiffness", "hose_drag"], set(),
+                             Setup(), _serial, table, floor, 1.0, steps, [stiff, hose], [], "stopped",
+                             lambda s: None)
+    assert out is chosen and stopped == "stopped" and steps == [{"step": 3}]
+    # three calibrations count as one explanation, as the stiffness beside two does: within
+    # the floor of each other, the smaller gap (counted by `explain`'s names, 3 against 1)
+    assert ACC.choose([stiff, hose], floor) is hose
+    # alone, a calibration within tolerance counts as one, as an event does
+    lift, wind = (table((["L1"], (e,), Setup(), None)) for e in ("drogue_lift", "hose_stiffness"))
+    assert [ACC.simplest(c)[0] for c in (lift, wind, chosen)] == [1, 1, 1]
+
+
 def test_an_addition_below_its_parameter_penalty_is_refused():
     # a model-form remainder no effect explains: steady_wind's two parameters buy
     # less than 2 x PARAM_PENALTY of the gap left, above the noise

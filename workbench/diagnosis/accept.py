@@ -11,7 +11,7 @@ from typing import Callable
 from scipy.special import erfcinv
 
 from solver.effects import EFFECTS
-from workbench.diagnosis.explanation import explain
+from workbench.diagnosis.explanation import event_count
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import NOISE_FACTOR, PARAM_PENALTY
 
@@ -79,9 +79,10 @@ def widened(floor: float, chance: Callable | None, before: Candidate | None, aft
 def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
     """The addition a step takes among `fits`: of those whose held-out gap
     is within the noise floor `floor` of the best (the data cannot tell them
-    apart), the one that names the fewest events (a calibration within its
-    data sheet's tolerance is no event, `explanation.explain`), then has the
-    fewest parameters, then the smallest gap."""
+    apart), the one that names the fewest events (calibrations within their
+    data sheets' tolerance are no event beside one, together one alone:
+    `explanation.event_count`), then has the fewest parameters, then the
+    smallest gap."""
     least = min(c.gap_after_heldout for c in fits)
     similar = [c for c in fits if c.gap_after_heldout <= least + floor]
     return min(similar, key=lambda c: simplest(c, prior))
@@ -89,9 +90,9 @@ def choose(fits: list, floor: float, prior: dict | None = None) -> Candidate:
 
 def simplest(c: Candidate, prior: dict | None = None) -> tuple:
     """The order in which the simplest of explanations the logs cannot tell
-    apart comes first: fewest events named (`explanation.explain`), then
+    apart comes first: fewest events (`explanation.event_count`), then
     fewest parameters, then the smallest held-out gap."""
-    return len(explain(c.effects, c.params, prior)[0]), c.n_params, c.gap_after_heldout
+    return event_count(c.effects, c.params, prior), c.n_params, c.gap_after_heldout
 
 
 def rescaled(shares: dict, gap_after: float, gap_before: float) -> dict:

@@ -60,6 +60,30 @@ def explain(effects: list, params: dict, prior: dict | None = None) -> tuple[lis
     return [e for e in events if e not in cals] or events, cals
 
 
+def beyond_tolerance(effects: list, params: dict, prior: dict | None = None) -> list:
+    """The events of `effects` fitted at `params` that no data sheet's
+    tolerance covers: `explain`'s events less its calibrations (none for a
+    set of calibrations within tolerance, which `explain` names as the only
+    explanation there is). What the trade trades."""
+    events, cals = explain(effects, params, prior)
+    return [e for e in events if e not in cals]
+
+
+def event_count(effects: list, params: dict, prior: dict | None = None) -> int:
+    """What an explanation counts for where the one naming fewest events is
+    taken (`accept.simplest`: `choose`, the trade): each event beyond a data
+    sheet's tolerance one, and its calibrations within tolerance together
+    one where nothing beyond tolerance is there: the hardware's spread about
+    its data sheets is one explanation, however many of its factors the logs
+    want. Counted by `explain`'s names, two calibrations within tolerance
+    were two events and the same set with a real event added one (measured
+    on a proving-ground doublet with no event withheld: a drogue lift and
+    drag within tolerance were traded for the two with a hose stiffness of
+    0.13 x its bench value, a false alarm)."""
+    events, cals = explain(effects, params, prior)
+    return sum(e not in cals for e in events) or min(len(cals), 1)
+
+
 BOUND_SHARE = 0.01   # a value within 1 % of its search range (in the search's scale) of a bound is on it
 
 

@@ -13,7 +13,7 @@ import math
 from solver.effects import EFFECTS
 from workbench.diagnosis.accept import acceptance, rescaled, simplest, widened
 from workbench.diagnosis.evaluate import gap
-from workbench.diagnosis.explanation import explain, implausibility
+from workbench.diagnosis.explanation import beyond_tolerance, implausibility
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.score import mapped, warm_start
 from workbench.diagnosis.setup import calibrated_params
@@ -121,7 +121,8 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
     that sinks the drogue), and later steps build on it; neither backward
     elimination (the event is not redundant: the calibration is not there)
     nor a later step (the calibration adds too little to be accepted)
-    undoes it. Tried where two or more events are named: each named event
+    undoes it. Tried where two or more events beyond a data sheet's
+    tolerance are named (`explanation.beyond_tolerance`): each such event
     traded for a screened effect that can be a calibration (`CALIBRATIONS`,
     fitted in its place, polished from its data sheet's value and the
     others' fitted values), and each such effect
@@ -148,7 +149,7 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
     def named(c):
         return simplest(c, prior)[0]
     bar = chosen.gap_after_heldout + floor
-    while len(events := explain(chosen.effects, chosen.params, prior)[0]) >= 2:
+    while len(events := beyond_tolerance(chosen.effects, chosen.params, prior)) >= 2:
         spare = [e for e in pool if e in CALIBRATIONS and e not in chosen.effects and e not in dropped]
         # a trade succeeds only with its calibration within tolerance, about its data sheet's
         # value: it is polished from there with the others from the set's values, not gridded
