@@ -141,9 +141,9 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
     within the bar: most trades fail, and their folds are the cost (the
     KDC-10 engagement family took 343 s with them all scored, 301-318 s with
     the prefit, 278 s without trades, on one day; 285 s with the prefit
-    where a step had not fitted the set, and the fits side by side). Shares as `backward`'s:
-    the traded-in effect takes the traded-out one's, an added one its own
-    gain, scaled to the set's shrink."""
+    where a step had not fitted the set, and the fits side by side). Shares
+    as `backward`'s: the traded-in effect takes the traded-out one's, an
+    added one its own gain, scaled to the set's shrink."""
     prior = setup.prior_effects
 
     def named(c):
@@ -203,10 +203,12 @@ def _fitted_already(swaps: list, fitted: list, paths: list, setup) -> list:
     everything again to learn whether it can reach the bar (measured on the
     KDC-10 engagement family, half of its six trades). One log has no
     all-logs fit (its parameters are chosen among its folds')."""
-    n = {frozenset(c.effects): c for c in fitted if c.success and c.gap_after_all_fit_per_log and len(paths) > 1}
+    if len(paths) == 1:
+        return [None] * len(swaps)
+    known = {frozenset(c.effects): c for c in fitted if c.success and c.gap_after_all_fit_per_log}
     out = []
     for _, _, job in swaps:
-        c = n.get(frozenset(job[1]))
+        c = known.get(frozenset(job[1]))
         ok = c is not None and c.n_params == len(calibrated_params(job[1], setup.refined))
         out.append(gap(list(c.gap_after_all_fit_per_log.values())) if ok else None)
     return out

@@ -1,7 +1,8 @@
 """A candidate scored held out: fitted per fold and on all of its logs (warm
-started at a set's fitted values), each fold's held-out gap (`score_candidate`);
-and fitted on all logs at once, the lower bound of that gap (`fitted_gap`).
-Both run in a worker process (or a Dask worker)."""
+started at a set's fitted values), each fold's held-out gap (`score_candidate`,
+or its fits mapped side by side: `mapped`); and fitted on all logs at once,
+the lower bound of that gap (`fitted_gap`). The fits run in a worker process
+(or a Dask worker)."""
 from __future__ import annotations
 
 import itertools
