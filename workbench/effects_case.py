@@ -87,9 +87,7 @@ def _probe_path(record) -> Trajectory | None:
     if df is None or len(df) < 2:
         return None
     from workbench import log_inputs
-    t = df.index.to_numpy(float)
-    xyz = df[["x_m", "y_m", "z_m"]].to_numpy(float)
-    return Trajectory(t, log_inputs._lowpass(t, xyz, log_inputs.PROBE_CUTOFF_HZ))
+    return Trajectory(*log_inputs.probe_track(record))
 
 
 def effect_context(case, model: Model, hardware, record, true_airspeed: float, density: float,

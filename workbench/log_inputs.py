@@ -1,9 +1,15 @@
 """What a flight log prescribes to the simulation: flight condition, tow-point
 motion, reel payout and the drogue's path while the probe holds it.
 
-Measured channels carry sensor noise; the solver differentiates prescribed
-motions, so each is low-passed with a zero-phase filter well above the motion
-it carries (doublets and engagements live below 1 Hz) before it is handed over.
+Measured channels carry sensor noise, and the solver differentiates
+prescribed motions and drives the hose with them: noise handed over rings
+the model's hose where the logged hose is quiet (a fixed 3 Hz cut on the
+probe track rang the engaged KDC-10 hose's ~1 Hz mode, 0.10-0.18 m at mid
+hose against the log's 0.05-0.07 m). So each channel, axis by axis, is
+low-passed with a zero-phase filter at its own signal bandwidth: where its
+spectrum falls to twice its sensor-noise floor (signal and noise equal, the
+half-power point of a Wiener filter; `flighttest.metrics.signal_bandwidth`),
+never above a fixed ceiling per channel.
 """
 from __future__ import annotations
 
@@ -11,9 +17,13 @@ import numpy as np
 from scipy import signal
 
 from flighttest import FlightRecord, LogError
+from flighttest.metrics import signal_bandwidth
 from solver.atmosphere import isa, cas_to_tas
 from solver.model import EndConstraint, Trajectory
 
+# the most each channel keeps, whatever its spectrum says (doublets and
+# engagements live below 1 Hz); also the cut of an axis whose bandwidth cannot
+# be measured (too short a record)
 TOW_CUTOFF_HZ = 5.0
 REEL_CUTOFF_HZ = 5.0
 PROBE_CUTOFF_HZ = 3.0
@@ -25,6 +35,22 @@ def _lowpass(t: np.ndarray, y: np.ndarray, cutoff_hz: float) -> np.ndarray:
         return y
     sos = signal.butter(4, cutoff_hz, fs=fs, output="sos")
     return signal.sosfiltfilt(sos, y, axis=0)
+
+
+def measured(t: np.ndarray, y: np.ndarray, ceiling_hz: float) -> np.ndarray:
+    """A measured channel (samples along axis 0, one column per axis) with each
+    axis low-passed at its signal bandwidth, at most `ceiling_hz`."""
+    cols = np.asarray(y, dtype=float).reshape(len(t), -1)
+    out = [_lowpass(t, c, min(ceiling_hz, np.nan_to_num(signal_bandwidth(t, c), nan=ceiling_hz)))
+           for c in cols.T]
+    return np.column_stack(out).reshape(np.shape(y))
+
+
+def probe_track(rec: FlightRecord) -> tuple[np.ndarray, np.ndarray]:
+    """The probe tip's path from /receiver/probe, (t, xyz), as `measured`."""
+    probe = rec.topic("/receiver/probe")
+    t = probe.index.to_numpy(float)
+    return t, measured(t, probe[["x_m", "y_m", "z_m"]].to_numpy(float), PROBE_CUTOFF_HZ)
 
 
 def flight_condition(rec: FlightRecord) -> dict:
@@ -45,13 +71,13 @@ def tow_trajectory(rec: FlightRecord) -> Trajectory:
     df = rec.topic("/tanker/tow_point")
     t = df.index.to_numpy(float)
     xyz = df[["x_m", "y_m", "z_m"]].to_numpy(float)
-    return Trajectory(t, _lowpass(t, xyz, TOW_CUTOFF_HZ))
+    return Trajectory(t, measured(t, xyz, TOW_CUTOFF_HZ))
 
 
 def payout(rec: FlightRecord) -> tuple[np.ndarray, np.ndarray]:
     df = rec.topic("/reel/hose_out")
     t = df.index.to_numpy(float)
-    return t, _lowpass(t, df["length_m"].to_numpy(float), REEL_CUTOFF_HZ)
+    return t, measured(t, df["length_m"].to_numpy(float), REEL_CUTOFF_HZ)
 
 
 # The drogue's steady position before contact is read over this window (s),
@@ -95,7 +121,7 @@ def drogue_while_engaged(rec: FlightRecord, drogue_start: np.ndarray, stiffness:
     at_probe = np.column_stack([np.interp(td_all[ok], tp, pp[:, c]) for c in range(3)])
     offset = np.median(dd_all[ok] - at_probe, axis=0)
     steady = np.median(dd_all[pre], axis=0)
-    path = _lowpass(tp, pp, PROBE_CUTOFF_HZ) + offset - steady + np.asarray(drogue_start, dtype=float)
+    path = probe_track(rec)[1] + offset - steady + np.asarray(drogue_start, dtype=float)
     return EndConstraint(Trajectory(tp, path), t_on=t_on, t_off=t_off, stiffness=stiffness, damping=damping)
 
 

@@ -10,7 +10,7 @@ The package exposes the public measurement names here, so callers write
 holds them:
 
 - `sampling`: noise floor, uniform resampling, sample rate;
-- `spectral`: dominant frequency, Welch and residual spectra;
+- `spectral`: dominant frequency, Welch and residual spectra, a channel's signal bandwidth;
 - `damping`: damped-sinusoid fit, log decrement, ring-down segmentation,
   two-accelerometer decomposition, grouping repetitions by setpoint;
 - `shape`: polyline projection, shape error, mean shape;
@@ -18,7 +18,9 @@ holds them:
 - `waves`: hose field on stations, wave speed.
 """
 from .sampling import median_rate_hz, noise_std, resample_uniform
-from .spectral import FrequencyEstimate, dominant_frequency, residual_spectrum, welch_psd
+from .spectral import (
+    FrequencyEstimate, dominant_frequency, residual_spectrum, signal_bandwidth, welch_psd,
+)
 from .damping import (
     DampedFit, DampingEstimate, DecaySegment, LogDecrement, axial_rocking, damping_ratio,
     fit_damped_sinusoid, free_decay_segment, group_by_setpoint, log_decrement,
@@ -35,6 +37,6 @@ __all__ = [
     "damping_ratio", "dominant_frequency", "fit_damped_sinusoid", "free_decay_segment",
     "front_arrival_times", "group_by_setpoint", "hinge_onset", "hose_field", "log_decrement",
     "mean_shape", "median_rate_hz", "noise_std", "project_onto_polyline", "resample_uniform",
-    "residual_spectrum", "shape_error", "time_history_error", "wave_speed_from_arrivals",
+    "residual_spectrum", "shape_error", "signal_bandwidth", "time_history_error", "wave_speed_from_arrivals",
     "wave_speed_xcorr", "welch_psd",
 ]

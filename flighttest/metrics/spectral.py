@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from .sampling import as_float, median_rate_hz, parabolic_vertex, resample_uniform
+from .sampling import as_float, median_rate_hz, noise_std, parabolic_vertex, resample_uniform
 
 
 @dataclass(frozen=True)
@@ -77,6 +77,36 @@ def welch_psd(y, fs: float, *, segment_s: float | None = None) -> tuple[np.ndarr
     nper = int(min(max(nper, 16), n))
     return signal.welch(y, fs=fs, window="hann", nperseg=nper, noverlap=nper // 2,
                         detrend="linear")
+
+
+def signal_bandwidth(t, y, *, snr: float = 1.0, segment_s: float = 8.0,
+                     smooth_hz: float = 0.3) -> float:
+    """The frequency (Hz) above which a channel holds nothing but its own
+    white sensor noise: the lowest frequency at which its power spectrum,
+    averaged over `smooth_hz`, falls to (1 + `snr`) times the noise floor
+    (signal power `snr` times the noise's there; 1: as much signal as noise).
+
+    Method: the channel resampled onto its median rate fs; Welch's PSD of
+    `segment_s` windows (`welch_psd`); the floor 2 s^2 / fs of white noise of
+    the standard deviation s that `noise_std` estimates (third differences,
+    independent of the spectrum). The search starts above the first bin (the
+    detrended mean). A channel whose spectrum never falls to the floor returns
+    the Nyquist frequency; one too short for a spectrum of two windows, or
+    without noise (a synthetic channel), returns nan (nothing to say).
+    """
+    fs = median_rate_hz(t)
+    if not fs > 0.0:
+        return math.nan
+    _, yu = resample_uniform(t, y, fs)
+    s = noise_std(yu)
+    # below the float resolution of the channel's range there is no noise to meet
+    if len(yu) < 2 * segment_s * fs or not s > 1e-9 * np.ptp(yu):
+        return math.nan
+    f, p = welch_psd(yu, fs, segment_s=segment_s)
+    width = max(1, int(round(smooth_hz / (f[1] - f[0]))))
+    p = np.convolve(p, np.ones(width) / width, mode="same")
+    at_floor = np.flatnonzero(p[1:] <= (1.0 + snr) * 2.0 * s * s / fs)
+    return float(f[1 + at_floor[0]]) if len(at_floor) else fs / 2.0
 
 
 def residual_spectrum(t_meas, y_meas, t_sim, y_sim, *, fs: float | None = None,

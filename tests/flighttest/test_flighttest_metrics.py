@@ -345,6 +345,56 @@ def test_welch_and_residual_spectrum():
     assert spec["psd_residual"][at2] < 1e-6 * spec["psd_meas"][at2]
 
 
+def _shaped_noise(shape, fs: float, duration_s: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit white sensor noise plus a random signal whose one-sided PSD is
+    shape(f) times the noise's (2 / fs), shaped exactly in the FFT domain."""
+    rng = np.random.default_rng(seed)
+    n = int(duration_s * fs)
+    spec = np.fft.rfft(rng.standard_normal(n)) * np.sqrt(shape(np.fft.rfftfreq(n, 1 / fs)))
+    return np.arange(n) / fs, np.fft.irfft(spec, n) + rng.standard_normal(n)
+
+
+# Where the bandwidth may land off an edge of the spectrum: the Hann window's
+# main lobe (2 bins of 1 / segment_s = 0.125 Hz each) and half the 0.3 Hz
+# smoothing on either side of it.
+EDGE_HZ = 2 / 8.0 + 0.3 / 2
+
+
+@pytest.mark.parametrize("band_hz", [0.6, 1.5, 3.0])
+def test_signal_bandwidth_is_the_edge_of_a_band_limited_signal(band_hz):
+    t, y = _shaped_noise(lambda f: np.where(f < band_hz, 100.0, 0.0), 30.0, 120.0, seed=3)
+    assert_allclose(M.signal_bandwidth(t, y), band_hz, atol=EDGE_HZ)
+
+
+@pytest.mark.parametrize("shelf, snr, edge_hz", [(3.0, 1.0, 2.5), (0.3, 1.0, 1.0), (3.0, 5.0, 1.0)])
+def test_signal_bandwidth_counts_a_shelf_as_signal_only_above_its_snr(shelf, snr, edge_hz):
+    # 100 x the noise up to 1 Hz, then a shelf to 2.5 Hz: at 3 x the noise it
+    # is signal for snr 1 (as much signal as noise) and not for snr 5; at 0.3 x
+    # it is not
+    shape = lambda f: np.select([f < 1.0, f < 2.5], [100.0, shelf], 0.0)
+    t, y = _shaped_noise(shape, 30.0, 120.0, seed=4)
+    assert_allclose(M.signal_bandwidth(t, y, snr=snr), edge_hz, atol=EDGE_HZ)
+
+
+def test_signal_bandwidth_of_white_noise_is_its_first_bin_and_nan_without_a_spectrum():
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 60, 1 / 30)
+    assert M.signal_bandwidth(t, rng.standard_normal(len(t))) == pytest.approx(1 / 8.0)
+    assert math.isnan(M.signal_bandwidth(t[:200], rng.standard_normal(200)))    # under two windows
+    assert math.isnan(M.signal_bandwidth(t, 0.5 * t))                               # no noise at all
+
+
+@given(st.floats(5.0, 200.0), st.floats(1e-3, 10.0), st.floats(0.0, 5.0), st.integers(0, 2 ** 16))
+@settings(max_examples=25, deadline=None)
+def test_signal_bandwidth_lies_between_the_first_bin_and_nyquist(fs, noise, drift, seed):
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0, 40, int(40 * fs)))          # jittered stamps, resampled inside
+    y = drift * np.sin(2 * math.pi * 0.2 * t) + noise * rng.standard_normal(len(t))
+    b = M.signal_bandwidth(t, y)
+    fs_med = 1 / np.median(np.diff(t))
+    assert 1 / 8.0 - 1e-9 <= b <= fs_med / 2 + 1e-9
+
+
 # ------------------------------------------------------------ wave speed
 
 def _travelling(c: float, direction: int, fs: float = 10.0, dx: float = 1.0, noise: float = 0.0,
