@@ -1,5 +1,5 @@
-"""Frequency of a signal and power spectra of measured, simulated and
-residual channels.
+"""Frequency of a signal, power spectra of measured, simulated and residual
+channels, and the band a channel holds above its own sensor noise.
 """
 from __future__ import annotations
 
