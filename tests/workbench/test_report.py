@@ -179,3 +179,23 @@ def test_objective_table_gives_e_and_its_validation_uncertainty():
     _, _, d, s, e, u_d, *_ = rows["z response RMS error (m)"]
     assert d is None and s is None and e == 0.05
     assert_allclose(u_d, 0.0, atol=1e-15)
+
+
+def test_a_long_table_starts_where_its_title_is_and_runs_on_with_its_header(tmp_path):
+    # a table longer than what is left of a page but shorter than a page: kept
+    # whole with its title it went to the next page and left half a page empty
+    # after the family's heading (the diagnosis's ranking)
+    import pdfplumber
+    from workbench.report.document import Document, Heading, Para, Table
+    from workbench.report.pdf import write_pdf
+    filler = " ".join(["The held-out gap per family, before and after each candidate."] * 60)
+    rows = [[f"row{i:02d}", "x " * 30] for i in range(40)]
+    doc = Document("t", [Heading(1, "Diagnosis", "d"), Para(filler),
+                         Table(["name", "text"], rows, [1, 4], title="Ranking")])
+    path = tmp_path / "t.pdf"
+    write_pdf(doc, path)
+    with pdfplumber.open(str(path)) as pdf:
+        pages = [p.extract_text() or "" for p in pdf.pages]
+    on = lambda s: [n for n, text in enumerate(pages) if s in text]
+    assert on("Ranking") == on("row00") == on("The held-out gap")[-1:]
+    assert len(on("name")) >= 2 and on("row39") != on("row00")     # the header again where it runs on

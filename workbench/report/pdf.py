@@ -88,6 +88,9 @@ def _plain(markup: str) -> str:
     return unescape(re.sub(r"<[^>]+>", "", markup))
 
 
+TABLE_START = 35 * mm    # a table's title, note, header and first rows
+
+
 def _table(t: Table, st, width: float) -> list:
     scale = width / sum(t.widths)
     head = [Paragraph(h, st["cell-head"]) for h in t.header]
@@ -101,11 +104,14 @@ def _table(t: Table, st, width: float) -> list:
                              ("VALIGN", (0, 0), (-1, -1), "TOP"),
                              ("LEFTPADDING", (0, 0), (-1, -1), 2.5), ("RIGHTPADDING", (0, 0), (-1, -1), 2.5),
                              ("TOPPADDING", (0, 0), (-1, -1), 1.5), ("BOTTOMPADDING", (0, 0), (-1, -1), 2)]))
-    out = []
+    # the title starts a page only where its table's first rows would not
+    # follow it: kept with the whole table (keepWithNext) a table shorter than
+    # a page but longer than what was left moved whole and left that empty
+    out = [CondPageBreak(TABLE_START)]
     if t.title:
-        out.append(Paragraph(f"<b>{t.title}</b>", ParagraphStyle("tt", st[""], keepWithNext=1)))
+        out.append(Paragraph(f"<b>{t.title}</b>", st[""]))
     if t.note:
-        out.append(Paragraph(t.note, ParagraphStyle("tn", st["note"], keepWithNext=1)))
+        out.append(Paragraph(t.note, st["note"]))
     out.append(tbl)
     out.append(Spacer(1, 4))
     return out
