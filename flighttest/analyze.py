@@ -21,7 +21,7 @@ from solver.units import FT, KT
 from .metrics import (
     axial_rocking, cross_correlation_lag, damping_ratio, dominant_frequency,
     free_decay_segment, front_arrival_times, group_by_setpoint, hinge_onset, hose_field,
-    mean_shape, median_rate_hz, resample_uniform, wave_speed_from_arrivals,
+    mean_shape, median_rate_hz, noise_std, resample_uniform, signal_bandwidth, wave_speed_from_arrivals,
 )
 from .record import FlightRecord, LogError
 
@@ -322,6 +322,31 @@ def _wave_speed(record: FlightRecord, tc: float, t_stop: float) -> dict[str, Any
             "wave_stations_used": int(np.isfinite(arrivals).sum())}
 
 
+# The channels a simulation is driven by (workbench.log_inputs), by the name
+# their figures carry: what each holds above its own sensor noise.
+_INPUT_CHANNELS = {"/tanker/tow_point": ("tow_point", ("x_m", "y_m", "z_m")),
+                   "/receiver/probe": ("probe", ("x_m", "y_m", "z_m")),
+                   "/reel/hose_out": ("reel", ("length_m",))}
+
+
+def _input_channels(record: FlightRecord) -> dict[str, Any]:
+    """Each prescribed channel's white sensor noise (`noise_std`, m) and signal
+    bandwidth (`signal_bandwidth`, Hz: where its spectrum falls to twice that
+    noise), per axis: `probe_x_noise_m`, `probe_x_bandwidth_hz`, ..."""
+    out: dict[str, Any] = {}
+    for topic, (name, cols) in _INPUT_CHANNELS.items():
+        df = record.topics.get(topic)
+        if df is None or len(df) < 2:
+            continue
+        t = df.index.to_numpy(float)
+        for col in cols:
+            y = df[col].to_numpy(float)
+            axis = "" if len(cols) == 1 else f"_{col[0]}"
+            out[f"{name}{axis}_noise_m"] = _f(noise_std(y))
+            out[f"{name}{axis}_bandwidth_hz"] = _f(signal_bandwidth(t, y))
+    return out
+
+
 _ANALYSES = {
     "ringdown_bending": _ringdown_bending,
     "ringdown_axial": _ringdown_axial,
@@ -347,6 +372,7 @@ def analyze_record(record: FlightRecord) -> dict[str, Any]:
     if info.repetition is not None:
         out["repetition"] = info.repetition
     out.update(_ANALYSES[info.test_kind](record))
+    out.update(_input_channels(record))
     if record.warnings:
         # What the reader found suspicious but kept (gaps, a cut recording):
         # reported beside the figures measured from it, never hidden.

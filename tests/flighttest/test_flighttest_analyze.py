@@ -237,6 +237,14 @@ def test_engagement_known_answer():
     # Arrival times from 10 Hz video and 1.5 m point spacing: 10 %.
     assert r["wave_speed_mps"] == pytest.approx(30.0, rel=0.1)
     assert r["wave_direction"] == 0
+    # The prescribed channels' own noise, as drawn (the median-based estimate:
+    # a few % on a thousand samples), and their band above it: the reel's
+    # 1.4 s take-up within a few Hz; a still probe's y and a still, noiseless
+    # tow point have no noise and no band to measure
+    assert r["reel_noise_m"] == pytest.approx(0.003, rel=0.1)
+    assert r["probe_x_noise_m"] == pytest.approx(0.02, rel=0.1)
+    assert 0.5 < r["reel_bandwidth_hz"] < 5.0
+    assert r["probe_y_noise_m"] == 0.0 and r["tow_point_z_bandwidth_hz"] is None
 
 
 # ------------------------------------------------------------ shipped logs
