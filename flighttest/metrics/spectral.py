@@ -89,11 +89,13 @@ def signal_bandwidth(t, y, *, snr: float = 1.0, segment_s: float = 8.0,
     Method: the channel resampled onto its median rate fs; Welch's PSD of
     `segment_s` windows (`welch_psd`); the floor 2 s^2 / fs of white noise of
     the standard deviation s that `noise_std` estimates on the samples as
-    logged (third differences, independent of the spectrum). The search starts above the first bin (the
-    detrended mean). A channel whose spectrum never falls to the floor returns
+    logged (third differences, independent of the spectrum). The search
+    starts above the first bin (the detrended mean). A channel whose
+    spectrum never falls to the floor returns
     the Nyquist frequency; one too short for a spectrum of two windows, or
     without noise (a synthetic channel), returns nan (nothing to say).
     """
+    t, y = as_float(t), as_float(y)
     fs = median_rate_hz(t)
     if not fs > 0.0:
         return math.nan
@@ -102,7 +104,7 @@ def signal_bandwidth(t, y, *, snr: float = 1.0, segment_s: float = 8.0,
     # between jittered stamps they average neighbours, which lowers the
     # estimate (a tow point at 100 Hz: 0.0005 m against 0.0010 m) but not the
     # noise's power at the low frequencies where the signal meets it
-    s = noise_std(as_float(y)[np.isfinite(as_float(t))])
+    s = noise_std(y[np.isfinite(t)])
     # below the float resolution of the channel's range there is no noise to meet
     if len(yu) < 2 * segment_s * fs or not s > 1e-9 * np.ptp(yu):
         return math.nan
