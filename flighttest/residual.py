@@ -283,6 +283,13 @@ class _Parts:
                         c["segment"].astype(int), c["band"].astype(object), drogue, hose, ob)
 
 
+def _nearest(times: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Index of the sorted `times` nearest each of `t`, the earlier on a tie."""
+    j = np.clip(np.searchsorted(times, t), 1, max(len(times) - 1, 1))
+    return np.where(np.abs(times[j - 1] - t) <= np.abs(times[j] - t), j - 1, j) if len(times) > 1 \
+        else np.zeros(len(t), int)
+
+
 def _frames(sim: FlightRecord):
     """The simulated video: frame times and each frame's (x, z) line, points in order."""
     h = sim.topic("/video/hose").sort_values(["t_s", "point"], kind="stable")
@@ -364,17 +371,16 @@ def _engagement_hose(ob: Observation, sim: FlightRecord, parts: _Parts) -> pd.Da
     then averaged per window and station."""
     tv, xv, zv = ob.video
     times, lines = _frames(sim)
-    frames, first = np.unique(tv, return_index=True)
-    order = np.argsort(tv, kind="stable")
+    frames = np.unique(tv)
+    k = _nearest(times, frames)
+    matched = np.abs(times[k] - frames) <= FRAME_MATCH_S
+    of_point = np.searchsorted(frames, tv)
+    use = matched[of_point]
     e = np.full(len(tv), np.nan)
     station = np.full(len(tv), np.nan)
     inside = np.zeros(len(tv), bool)
-    for i, idx in enumerate(np.split(order, np.searchsorted(tv[order], frames[1:]))):
-        k = int(np.argmin(np.abs(times - frames[i])))
-        if abs(times[k] - frames[i]) > FRAME_MATCH_S:
-            continue
-        e[idx], station[idx], inside[idx], _, _ = M.project_onto_polyline(
-            np.column_stack([xv[idx], zv[idx]]), lines[k])
+    e[use], station[use], inside[use] = M.project_onto_polylines(
+        np.column_stack([xv[use], zv[use]]), lines, k[of_point[use]])
     ok = np.isfinite(e)
     tt, ee, xx = tv[ok], e[ok], xv[ok]
     w = np.floor(tt / VIDEO_WINDOW_S).astype(int)

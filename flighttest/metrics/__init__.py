@@ -25,7 +25,7 @@ from .damping import (
     DampedFit, DampingEstimate, DecaySegment, LogDecrement, axial_rocking, damping_ratio,
     fit_damped_sinusoid, free_decay_segment, group_by_setpoint, log_decrement,
 )
-from .shape import ShapeError, mean_shape, project_onto_polyline, shape_error
+from .shape import ShapeError, mean_shape, project_onto_polyline, project_onto_polylines, shape_error
 from .time_history import TimeHistoryError, cross_correlation_lag, hinge_onset, time_history_error
 from .waves import (
     WaveSpeed, front_arrival_times, hose_field, wave_speed_from_arrivals, wave_speed_xcorr,
@@ -36,7 +36,7 @@ __all__ = [
     "ShapeError", "TimeHistoryError", "WaveSpeed", "axial_rocking", "cross_correlation_lag",
     "damping_ratio", "dominant_frequency", "fit_damped_sinusoid", "free_decay_segment",
     "front_arrival_times", "group_by_setpoint", "hinge_onset", "hose_field", "log_decrement",
-    "mean_shape", "median_rate_hz", "noise_std", "project_onto_polyline", "resample_uniform",
+    "mean_shape", "median_rate_hz", "noise_std", "project_onto_polyline", "project_onto_polylines", "resample_uniform",
     "residual_spectrum", "shape_error", "signal_bandwidth", "time_history_error", "wave_speed_from_arrivals",
     "wave_speed_xcorr", "welch_psd",
 ]

@@ -249,6 +249,29 @@ def test_shape_error_of_line_with_itself_is_zero(curv, length_scale, offset):
     assert np.nanmax(np.abs(e.vertical_error_m)) < 1e-9
 
 
+@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 40), st.integers(2, 7))
+@settings(max_examples=40, deadline=None)
+def test_projection_on_many_lines_is_the_projection_point_by_point(seed, n, n_lines):
+    # Lines of mixed lengths, some with a repeated node (a zero-length segment,
+    # dropped by the one-line projection), points near and beyond their ends:
+    # the batched projection must give the one-line values, bit for bit.
+    rng = np.random.default_rng(seed)
+    lines = []
+    for _ in range(n_lines):
+        m = int(rng.integers(2, 6))
+        x = np.cumsum(rng.uniform(0.5, 3.0, m))
+        line = np.column_stack([x, -0.1 * x + rng.normal(0, 0.3, m)])
+        if m > 2 and rng.random() < 0.3:
+            line = np.insert(line, 1, line[1], axis=0)
+        lines.append(line)
+    q = np.column_stack([rng.uniform(-2, 16, n), rng.normal(-0.5, 1.0, n)])
+    which = rng.integers(0, n_lines, n)
+    err, station, inside = M.project_onto_polylines(q, lines, which, chunk=7)
+    for i in range(n):
+        e1, s1, in1, _, _ = M.project_onto_polyline(q[i:i + 1], lines[which[i]])
+        assert (err[i], station[i], inside[i]) == (e1[0], s1[0], in1[0])
+
+
 def test_mean_shape_bins():
     x = np.array([0.2, 0.7, 1.1, 1.9, 5.5])
     z = np.array([1.0, 3.0, 2.0, 4.0, 7.0])

@@ -179,9 +179,15 @@ def reproducibility_weight(floor, spread) -> np.ndarray:
         return np.where(m > f, 0.0, np.where(m > 0, f / np.sqrt(f ** 2 + m ** 2), 1.0))
 
 
+@functools.lru_cache(maxsize=16)
 def reproducibility_weights(path: str, setup: Setup) -> np.ndarray:
-    """The log's components' `reproducibility_weight` under `model_spread`."""
-    return reproducibility_weight(unweighted(path, {}, setup).floor, model_spread(path, setup))
+    """The log's components' `reproducibility_weight` under `model_spread`,
+    once per (log, setup) and process (read-only): every evaluation needs
+    them, and the baseline's residual they are read from cost an engagement
+    evaluation as much as its own."""
+    w = reproducibility_weight(unweighted(path, {}, setup).floor, model_spread(path, setup))
+    w.flags.writeable = False
+    return w
 
 
 def evaluate(path: str, effects: Mapping, setup: Setup = Setup()) -> Residual:
