@@ -332,7 +332,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         # a random motion's low frequencies lie alike in both halves of a log: an effect
         # whose pattern they share cuts the held-out gap by chance too, so once the motion
         # is real each step must beat what it explains along that step's pattern as well
-        say(f"{', '.join(chance)} within what turbulence of {turb.stationary_mps:.2f} m/s explains by chance "
+        say(f"{', '.join(chance)} within what turbulence of {turb.estimate.sigma_mps:.2f} m/s explains by chance "
             f"along its pattern: selecting again, each step against the noise floor and that")
         sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say,
                              chance=turb.chance_offset, refinable=forms, prefit=fitted_gap)
@@ -377,7 +377,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         ranking = rest[:rest.index(none) + 1] + alone + rest[rest.index(none) + 1:]
     if ranking[0] is none and not none.why:
         none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x what the day's air "
-                    f"(turbulence of {turb.stationary_mps:.2f} m/s) explains by chance along its pattern "
+                    f"(turbulence of {turb.estimate.sigma_mps:.2f} m/s) explains by chance along its pattern "
                     f"({turb.chance_offset(None, sel.chosen):.3f} m)")
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation's deterministic effects are in
@@ -398,7 +398,6 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         remaining_unexplained={"gap_m": remaining,
                                "above_noise_m": math.sqrt(max(remaining ** 2 - floor ** 2, 0.0))},
         gap=where, gap_after_best=after, wall_s=time.perf_counter() - t_start, steady_floor_m=turb.steady_floor_m,
-        stationary_sigma_mps=turb.stationary_mps,
         remainder=remainder(left), named_probability=named_probability(ranking),
         not_separable=not_separable(columns, np.concatenate([base[p].floor for p in paths])),
         baseline=setup.prior_effects, reel=reel.to_json() if reel is not None else None, reel_established=est)

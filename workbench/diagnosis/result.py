@@ -114,11 +114,7 @@ class FamilyDiagnosis:
     gap_after_best: dict          # where-map per log with the best explanation
     wall_s: float
     selection: dict = dataclasses.field(default_factory=dict)
-    # the offset turbulence leaves by chance (`turbulence.steady_floor`, at its stationary sigma)
-    steady_floor_m: float = 0.0
-    # the sigma of the random motion's stationary part the chance offsets are measured at
-    # (`turbulence.stationary_sigma`; None where no random motion was measured)
-    stationary_sigma_mps: float | None = None
+    steady_floor_m: float = 0.0   # the offset turbulence of sigma_hat leaves by chance (`turbulence.steady_floor`)
     remainder: dict = dataclasses.field(default_factory=dict)   # what the best leaves (`remainder.remainder`)
     # pairs of screened effects these logs cannot tell apart: {"effects": [a, b], "cosine"} (`identify`)
     not_separable: list = dataclasses.field(default_factory=list)

@@ -50,9 +50,7 @@ has no realisation to simulate (the where-map after a candidate with it
 simulates its deterministic effects only).
 
 The steady floor (`steady_floor`): the RMS of the gap components' shift a
-turbulence leaves by chance, at the sigma of its stationary part
-(`stationary_sigma`: the median of blocks of the record, which a transient
-the model misses does not fill, against sigma_hat's pool of them all) (from the same ensemble; over a
+turbulence of sigma_hat leaves by chance (from the same ensemble; over a
 trail's steady components that is the mean offset over the test's window,
 its low-frequency content). What a deterministic change explains of it by
 chance is only its projection on the change's own pattern
@@ -94,10 +92,6 @@ MAD_SIGMA = 1.4826      # sigma of a normal distribution per median absolute dev
 # differences' own correlation (lag 1: -2/3, lag 2: 1/6), as for a variance estimate
 MAD_REL_SD = 1.166 * math.sqrt(1.0 + 2.0 * ((2.0 / 3.0) ** 2 + (1.0 / 6.0) ** 2))
 DETECT_Z = 2.0          # sigma^2 at two standard errors from zero is detected
-# the blocks a random motion's stationary part is measured over (`stationary_sigma`):
-# several per log (a doublet's 40 s: eight), each a few of the drogue's periods
-STATIONARY_BLOCK_S = 5.0
-MIN_BLOCKS = 3          # fewer full blocks in a family: sigma_hat itself
 
 
 # ---- statistics of one record -------------------------------------------------------------
@@ -383,37 +377,6 @@ def steady_floor(stats: list[LogStatistics], sigma_mps: float) -> float:
     return sigma_mps * math.sqrt(float(np.mean(u))) if len(u) else 0.0
 
 
-def stationary_sigma(stats: list[LogStatistics], est: SigmaEstimate) -> float:
-    """The sigma (m/s) of the random motion's stationary part, at most
-    sigma_hat: the median over the family's `STATIONARY_BLOCK_S` blocks of
-    the log's excess band power per the ensemble's mean power there, divided
-    by the same median taken of each member against the ensemble mean (what
-    one realisation's median of its blocks is against their mean; the two
-    agree for a stationary motion). The air's random motion is alike in
-    every block; a transient (a gust's ring-down, a burst the model misses)
-    fills a few, and sigma_hat, pooled over the whole record, takes it in.
-    What a real random motion explains by chance (`RandomEffect`) is the
-    stationary part's: a yardstick measured with the transient in it would
-    refuse the transient for being as large as itself. sigma_hat where the
-    family has fewer than `MIN_BLOCKS` full blocks or the motion is not real."""
-    if not est.real:
-        return est.sigma_mps
-    excess, unit = [], []
-    for st in stats:
-        blk = np.floor((st.mid - st.mid[0]) / STATIONARY_BLOCK_S).astype(int)
-        full = np.bincount(blk) >= 0.75 * STATIONARY_BLOCK_S / BIN_S
-        noise = (1.0 - st.lev[:, None]) * st.noise_sd ** 2 / st.n[:, None]
-        excess.append(np.bincount(blk, weights=np.sum(st.d ** 2 - noise, axis=1))[full])
-        unit.append(np.stack([np.bincount(blk, weights=np.sum(r ** 2, axis=1))[full] for r in st.response], 1))
-    excess, unit = np.concatenate(excess), np.concatenate(unit)      # (blocks,), (blocks, members)
-    mean = np.mean(unit, axis=1)
-    if len(excess) < MIN_BLOCKS or not np.all(mean > 0):
-        return est.sigma_mps
-    one = float(np.mean(np.median(unit / mean[:, None], axis=0)))
-    s2 = float(np.median(excess / mean)) / one * SIGMA_REF_MPS ** 2
-    return min(math.sqrt(max(s2, 0.0)), est.sigma_mps)
-
-
 def held_out_shift(stats: list[LogStatistics], folds, sigma_mps: float) -> np.ndarray:
     """(members, components): each ensemble member's shift of the gap
     components at `sigma_mps` on the `folds`' held-out parts, in the order a
@@ -439,17 +402,12 @@ class RandomEffect:
     joint: Candidate | None = None
     shift: np.ndarray | None = None
     baseline: list | None = None
-    stationary_mps: float | None = None     # `stationary_sigma`: what the chance offsets are measured at
-
-    def __post_init__(self):
-        if self.stationary_mps is None and self.estimate is not None:
-            self.stationary_mps = self.estimate.sigma_mps
 
     def chance_offset(self, a: Candidate | None, b: Candidate | None) -> float:
         """The part of the held-out gap (m) a deterministic change from `a` to
         `b` (candidates; None the baseline, `baseline` its held-out
-        components) explains by chance when the random motion's stationary
-        part (`stationary_mps`) is all there is: sqrt(E[(u . d)^2] / N) over the ensemble's held-out
+        components) explains by chance when the random motion of sigma_hat is
+        all there is: sqrt(E[(u . d)^2] / N) over the ensemble's held-out
         shifts u (`shift`, the members at sigma_hat), d the unit pattern of
         the change (a's held-out components minus b's), N the components. A
         random motion's low frequencies lie alike in both halves of a log, so
@@ -509,7 +467,7 @@ class RandomEffect:
             if gain <= NOISE_FACTOR * chance:
                 c.score = max(c.score, anchor.score * (1 + 1e-9))
                 c.why_not_first = (f"its held-out gain {gain:.3f} m is within {NOISE_FACTOR:g} x the offset a "
-                                   f"turbulence of {self.stationary_mps:.2f} m/s leaves by chance along its pattern "
+                                   f"turbulence of {est.sigma_mps:.2f} m/s leaves by chance along its pattern "
                                    f"({chance:.3f} m)")
                 moved.append(c)
         rest = [c for c in ranking if not any(c is m for m in moved)]
@@ -552,6 +510,5 @@ def random_candidate(paths: list[str], base: dict, chosen: Candidate | None, set
     cand.wall_s = time.perf_counter() - t_start
     if not est.real:
         return RandomEffect(cand, est, 0.0, joint)
-    s = stationary_sigma(stats, est)
-    return RandomEffect(cand, est, steady_floor(stats, s), joint, held_out_shift(stats, folds, s),
-                        baseline_held_out(paths, base), s)
+    return RandomEffect(cand, est, steady_floor(stats, est.sigma_mps), joint,
+                        held_out_shift(stats, folds, est.sigma_mps), baseline_held_out(paths, base))
