@@ -36,7 +36,8 @@ __all__ = [
     "ShapeError", "TimeHistoryError", "WaveSpeed", "axial_rocking", "cross_correlation_lag",
     "damping_ratio", "dominant_frequency", "fit_damped_sinusoid", "free_decay_segment",
     "front_arrival_times", "group_by_setpoint", "hinge_onset", "hose_field", "log_decrement",
-    "mean_shape", "median_rate_hz", "noise_std", "project_onto_polyline", "project_onto_polylines", "resample_uniform",
+    "mean_shape", "median_rate_hz", "noise_std", "project_onto_polyline", "project_onto_polylines",
+    "resample_uniform",
     "residual_spectrum", "shape_error", "signal_bandwidth", "time_history_error", "wave_speed_from_arrivals",
     "wave_speed_xcorr", "welch_psd",
 ]

@@ -30,9 +30,17 @@ def project_onto_polyline(q: np.ndarray, P: np.ndarray):
     whether the foot lies strictly inside the line (not clamped to an end).
     Zero-length segments are dropped. Returns (err, station, inside, P, s_nodes)
     with the cleaned polyline and its nodes' arc lengths."""
-    P = _cleaned(np.asarray(P, float))
-    err, station, inside = _feet(q, np.broadcast_to(P, (len(q),) + P.shape))
-    return err, station, inside, P, _arc(P)
+    P = np.asarray(P, float)
+    d, seg_len = _segments(P)
+    if np.any(seg_len == 0):
+        P = P[np.concatenate([[True], seg_len > 0])]
+        d, seg_len = _segments(P)
+    s_nodes = _arc(seg_len)
+    n = (len(q),)
+    err, station, inside = _feet(q, np.broadcast_to(P, n + P.shape), np.broadcast_to(d, n + d.shape),
+                                 np.broadcast_to(seg_len, n + seg_len.shape),
+                                 np.broadcast_to(s_nodes, n + s_nodes.shape))
+    return err, station, inside, P, s_nodes
 
 
 def project_onto_polylines(q: np.ndarray, lines: list, which: np.ndarray, chunk: int = 20000):
@@ -40,8 +48,8 @@ def project_onto_polylines(q: np.ndarray, lines: list, which: np.ndarray, chunk:
     `lines[which[i]]` (each (m, 2)): (err, station, inside), the same values
     as point by point, in one array pass per line length (lines with a
     zero-length segment one by one): one projection per video frame cost an
-    engagement's residual two thirds of its time. `chunk` points at a time
-    bound the temporary arrays."""
+    engagement's residual two thirds of its time. Each line's segments are
+    measured once; `chunk` points at a time bound the temporary arrays."""
     q, which = np.asarray(q, float), np.asarray(which, int)
     err, station, inside = np.empty(len(q)), np.empty(len(q)), np.empty(len(q), bool)
     size = np.array([len(P) for P in lines], int)
@@ -49,42 +57,39 @@ def project_onto_polylines(q: np.ndarray, lines: list, which: np.ndarray, chunk:
     for m in np.unique(size):
         ks = np.flatnonzero(size == m)
         L = np.stack([np.asarray(lines[k], float) for k in ks])
-        d = np.diff(L, axis=1)
-        ok = np.all(np.hypot(d[..., 0], d[..., 1]) > 0, axis=1)
-        ks, L = ks[ok], L[ok]
+        d, seg_len = _segments(L)
+        ok = np.all(seg_len > 0, axis=1)
+        ks, L, d, seg_len = ks[ok], L[ok], d[ok], seg_len[ok]
+        s_nodes = _arc(seg_len)
         clean[ks] = True
         slot = np.full(len(lines), -1)
         slot[ks] = np.arange(len(ks))
         at = np.flatnonzero(slot[which] >= 0)
         for a in range(0, len(at), chunk):
             i = at[a:a + chunk]
-            err[i], station[i], inside[i] = _feet(q[i], L[slot[which[i]]])
+            li = slot[which[i]]
+            err[i], station[i], inside[i] = _feet(q[i], L[li], d[li], seg_len[li], s_nodes[li])
     for k in np.unique(which[~clean[which]]):
         i = which == k
         err[i], station[i], inside[i], _, _ = project_onto_polyline(q[i], lines[k])
     return err, station, inside
 
 
-def _cleaned(P: np.ndarray) -> np.ndarray:
-    """The polyline P without its zero-length segments."""
-    d = np.diff(P, axis=0)
-    seg_len = np.hypot(d[:, 0], d[:, 1])
-    return P[np.concatenate([[True], seg_len > 0])] if np.any(seg_len == 0) else P
-
-
-def _arc(P: np.ndarray) -> np.ndarray:
-    """Arc lengths of the polylines' nodes, along the last but one axis."""
+def _segments(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The segment vectors and lengths of the polylines P (..., m, 2)."""
     d = np.diff(P, axis=-2)
-    seg_len = np.hypot(d[..., 0], d[..., 1])
+    return d, np.hypot(d[..., 0], d[..., 1])
+
+
+def _arc(seg_len: np.ndarray) -> np.ndarray:
+    """Arc lengths of the nodes from their segments' lengths (..., m - 1)."""
     return np.concatenate([np.zeros(seg_len.shape[:-1] + (1,)), np.cumsum(seg_len, axis=-1)], axis=-1)
 
 
-def _feet(q: np.ndarray, P: np.ndarray):
+def _feet(q: np.ndarray, P: np.ndarray, d: np.ndarray, seg_len: np.ndarray, s_nodes: np.ndarray):
     """(err, station, inside) of each point q[i] on its polyline P[i] (n, m, 2),
-    no zero-length segments."""
-    d = np.diff(P, axis=1)
-    seg_len = np.hypot(d[..., 0], d[..., 1])
-    s_nodes = _arc(P)
+    with its segments d[i], seg_len[i] (no zero length) and nodes' arc lengths
+    s_nodes[i]."""
     r = q[:, None, :] - P[:, :-1, :]
     u = np.clip((r[..., 0] * d[..., 0] + r[..., 1] * d[..., 1]) / seg_len ** 2, 0.0, 1.0)
     foot = P[:, :-1, :] + u[..., None] * d
