@@ -54,7 +54,12 @@ turbulence of sigma_hat leaves by chance (from the same ensemble; over a
 trail's steady components that is the mean offset over the test's window,
 its low-frequency content). What a deterministic change explains of it by
 chance is only its projection on the change's own pattern
-(`RandomEffect.chance_offset`, over the ensemble's held-out shifts): a steady
+(`RandomEffect.chance_offset`, over the ensemble's held-out shifts), at the
+random motion the larger model leaves (`RandomEffect.sigma_under`: sigma_hat
+measured again about the changed set's time runs, at most sigma_hat), as an
+F-test's denominator is the larger model's residual variance: a transient
+the selected set misses (a gust's ring-down) is in sigma_hat, and a yardstick
+measured with it refused the transient for being as large as itself. A steady
 effect's pattern shares the random motion's low frequencies, a lag's phase
 or the bow wave before contact barely does. A deterministic candidate is
 credited (`RandomEffect.credit_steady`) only when the held-out gap it
@@ -160,7 +165,9 @@ class LogStatistics:
     `n_noise`: the tracker noise and the triples it rests on; `response`
     (K, bins, 3): each member minus the deterministic run at SIGMA_REF_MPS;
     `gap_resp` (K, m): the same on the diagnosis's gap components,
-    `gap_segment` (m,) their segments."""
+    `gap_segment` (m,) their segments; `fixes` what they were measured from,
+    (t, xyz, deterministic run, members, probes) at the fixes, to measure
+    them again about another deterministic run (`about`)."""
 
     path: str
     mid: np.ndarray
@@ -172,6 +179,17 @@ class LogStatistics:
     response: np.ndarray
     gap_resp: np.ndarray
     gap_segment: np.ndarray
+    fixes: tuple | None = None
+
+    def about(self, y: np.ndarray) -> "LogStatistics":
+        """These statistics about another deterministic run `y` (at the fixes,
+        (n, 3)): the log's residual from it, its own deterministic directions
+        projected off; the members' and probes' departures from the run the
+        same (the response to the air is the model's, not the set's)."""
+        t, xyz, y0, members, probes = self.fixes
+        dy = y - y0
+        return statistics_of(self.path, t, xyz, y, [m + dy for m in members], self.gap_resp, self.gap_segment,
+                             [None if p is None else p + dy for p in probes])
 
     def selected(self, segment: int | None = None) -> np.ndarray:
         return np.ones(len(self.mid), bool) if segment is None else segment_of(self.mid) == segment
@@ -243,7 +261,7 @@ def statistics_of(path: str, t, xyz, y0, members, gap_resp, gap_segment, probes=
         return y - Q @ (Q.T @ y)
     resp = [off(bin_means(t, m - y0, edges)[0][keep]) for m in members]
     return LogStatistics(path, mid, n, np.sum(Q ** 2, axis=1), off(d), noise, n_noise, np.array(resp),
-                         np.asarray(gap_resp, float), np.asarray(gap_segment))
+                         np.asarray(gap_resp, float), np.asarray(gap_segment), (t, xyz, y0, members, probes))
 
 
 def log_statistics(job) -> LogStatistics:
@@ -402,13 +420,38 @@ class RandomEffect:
     joint: Candidate | None = None
     shift: np.ndarray | None = None
     baseline: list | None = None
+    stats: list | None = None       # the family's `LogStatistics`, to measure again about a set (`sigma_under`)
+    setup: Setup | None = None
+    _under: dict = dataclasses.field(default_factory=dict, repr=False)
+
+    def sigma_under(self, c: Candidate | None) -> float:
+        """The random motion (m/s) the set `c` leaves: sigma_hat measured again
+        about `c`'s time runs (its fitted parameters on all logs), at most
+        sigma_hat. A set that takes up a transient sigma_hat holds (a gust's
+        ring-down the selected set misses) leaves less; a steady effect's
+        change is mostly the constant the statistics project off, and leaves
+        it as it was. sigma_hat itself for the baseline, a set with
+        turbulence, or where `c`'s run fails."""
+        sigma = self.estimate.sigma_mps
+        if c is None or "turbulence" in c.effects or not self.stats or self.setup is None:
+            return sigma
+        key = repr(sorted((e, sorted(v.items())) for e, v in c.params.items()))
+        if key not in self._under:
+            try:
+                runs = [_at_fixes(_run(st.path, c.params, self.setup), st.fixes[0]) for st in self.stats]
+                self._under[key] = min(estimate_sigma([st.about(y) for st, y in zip(self.stats, runs)]).sigma_mps,
+                                       sigma)
+            except SimulationFailed:
+                self._under[key] = sigma
+        return self._under[key]
 
     def chance_offset(self, a: Candidate | None, b: Candidate | None) -> float:
         """The part of the held-out gap (m) a deterministic change from `a` to
         `b` (candidates; None the baseline, `baseline` its held-out
-        components) explains by chance when the random motion of sigma_hat is
-        all there is: sqrt(E[(u . d)^2] / N) over the ensemble's held-out
-        shifts u (`shift`, the members at sigma_hat), d the unit pattern of
+        components) explains by chance when the random motion the larger set
+        leaves (`sigma_under`, of `b`, or of `a` where `b` is None) is all
+        there is: sqrt(E[(u . d)^2] / N) over the ensemble's held-out shifts u
+        (`shift`, the members at sigma_hat, scaled to it), d the unit pattern of
         the change (a's held-out components minus b's), N the components. A
         random motion's low frequencies lie alike in both halves of a log, so
         an effect whose pattern they share cuts the held-out gap by chance;
@@ -430,7 +473,8 @@ class RandomEffect:
         norm = float(np.linalg.norm(d))
         if norm == 0.0:
             return 0.0
-        return math.sqrt(float(np.mean((self.shift @ (d / norm)) ** 2)) / len(d))
+        scale = self.sigma_under(b if b is not None else a) / self.estimate.sigma_mps
+        return scale * math.sqrt(float(np.mean((self.shift @ (d / norm)) ** 2)) / len(d))
 
     def credit_steady(self, ranking: list, accepted: bool = True) -> list:
         """`ranking` with every deterministic candidate ahead of the turbulence
@@ -511,4 +555,4 @@ def random_candidate(paths: list[str], base: dict, chosen: Candidate | None, set
     if not est.real:
         return RandomEffect(cand, est, 0.0, joint)
     return RandomEffect(cand, est, steady_floor(stats, est.sigma_mps), joint,
-                        held_out_shift(stats, folds, est.sigma_mps), baseline_held_out(paths, base))
+                        held_out_shift(stats, folds, est.sigma_mps), baseline_held_out(paths, base), stats, setup)
