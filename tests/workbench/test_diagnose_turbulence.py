@@ -6,6 +6,7 @@ proving-ground logs (independent physics, known truth)."""
 from __future__ import annotations
 
 import math
+import types
 from pathlib import Path
 
 import numpy as np
@@ -272,3 +273,46 @@ def test_statistics_measured_again_about_a_set_that_takes_up_a_transient_leave_t
         assert_allclose(again.response, st.response, rtol=0, atol=0)
     assert np.median(pooled) > 1.3 * 0.5
     assert abs(np.median(about) - 0.5) < 0.15 * 0.5
+
+
+def test_the_chance_offset_is_scaled_to_the_random_motion_the_larger_set_leaves(monkeypatch):
+    # `sigma_under`: the statistics measured again about a candidate's own time run (stubbed
+    # here: the log's ring-down for a gust, nothing for a steady wind), at most sigma_hat, one
+    # run per log and parameter set; the chance offset along a change's pattern scales with it
+    import workbench.diagnosis.turbulence as TURB
+    from workbench.errors import SimulationFailed
+    rng = np.random.default_rng(15)
+    t, xyz, members, _ = _record(rng, 0.5)
+    ring = np.where((t > 21.0) & (t < 26.0), np.exp(-(t - 21.0) / 1.5) * np.sin(2 * np.pi * (t - 21.0)), 0.0)
+    transient = 0.6 * ring[:, None] * np.array([0.3, 1.0, 1.0])
+    st = _stats(t, xyz + transient, members)
+    est = estimate_sigma([st])
+    runs = []
+
+    def run(path, effects, setup):
+        runs.append(effects)
+        if "hose_drag" in effects:
+            raise SimulationFailed(path, effects, RuntimeError("diverged"))
+        return transient if "gust" in effects else np.zeros_like(xyz)
+    monkeypatch.setattr(TURB, "_run", run)
+    monkeypatch.setattr(TURB, "_at_fixes", lambda sim, fix_t: sim)
+    gust = Candidate("gust", ["gust"], 2, params={"gust": {"vertical_mps": 2.0, "start_s": 21.0}})
+    wind = Candidate("steady_wind", ["steady_wind"], 2, params={"steady_wind": {"vertical_mps": 1.0}})
+    failed = Candidate("hose_drag", ["hose_drag"], 1, params={"hose_drag": {"crossflow": 1.5}})
+    turb = Candidate("turbulence", ["turbulence"], 1, params={"turbulence": {"sigma_mps": 0.6}})
+    shift = 0.01 * rng.normal(size=(N_SEEDS, 6))
+    base = [types.SimpleNamespace(r=np.zeros(6))]
+    effect = RandomEffect(turb, est, 0.01, shift=shift, baseline=base, stats=[st], setup=Setup())
+    under = effect.sigma_under(gust)
+    assert_allclose(under, estimate_sigma([st.about(transient)]).sigma_mps, rtol=1e-12)
+    assert under < 0.8 * est.sigma_mps
+    # a steady effect's run is the statistics' own: sigma_hat; a failed run, turbulence, none: sigma_hat
+    for c in (wind, failed, turb, None):
+        assert_allclose(effect.sigma_under(c), est.sigma_mps, rtol=1e-12)
+    effect.sigma_under(gust)
+    assert len(runs) == 3      # gust, wind, the failed hose drag: each parameter set run once
+    # the chance offset of a change to the gust is the one at sigma_hat times under / sigma_hat
+    gust.held_out = [types.SimpleNamespace(r=np.arange(6.0))]
+    plain = RandomEffect(turb, est, 0.01, shift=shift, baseline=base)
+    assert_allclose(effect.chance_offset(None, gust), plain.chance_offset(None, gust) * under / est.sigma_mps,
+                    rtol=1e-12)
