@@ -332,8 +332,8 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         # a random motion's low frequencies lie alike in both halves of a log: an effect
         # whose pattern they share cuts the held-out gap by chance too, so once the motion
         # is real each step must beat what it explains along that step's pattern as well
-        say(f"{', '.join(chance)} within what turbulence of {turb.estimate.sigma_mps:.2f} m/s explains by chance "
-            f"along its pattern: selecting again, each step against the noise floor and that")
+        say(f"{', '.join(chance)} within what turbulence of at most {turb.estimate.sigma_mps:.2f} m/s explains by "
+            f"chance along its pattern: selecting again, each step against the noise floor and that")
         sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say,
                              chance=turb.chance_offset, refinable=forms, prefit=fitted_gap)
         sel.stopped += (f" (each step against the noise floor and what the random motion explains by chance "
@@ -377,7 +377,7 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         ranking = rest[:rest.index(none) + 1] + alone + rest[rest.index(none) + 1:]
     if ranking[0] is none and not none.why:
         none.why = (f"what the selected set explains is within {NOISE_FACTOR:g} x what the day's air "
-                    f"(turbulence of {turb.estimate.sigma_mps:.2f} m/s) explains by chance along its pattern "
+                    f"(turbulence of {turb.sigma_under(sel.chosen):.2f} m/s) explains by chance along its pattern "
                     f"({turb.chance_offset(None, sel.chosen):.3f} m)")
     remaining = ranking[0].gap_after_heldout
     # where the gap lies once the best explanation's deterministic effects are in

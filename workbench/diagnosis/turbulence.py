@@ -511,7 +511,7 @@ class RandomEffect:
             if gain <= NOISE_FACTOR * chance:
                 c.score = max(c.score, anchor.score * (1 + 1e-9))
                 c.why_not_first = (f"its held-out gain {gain:.3f} m is within {NOISE_FACTOR:g} x the offset a "
-                                   f"turbulence of {est.sigma_mps:.2f} m/s leaves by chance along its pattern "
+                                   f"turbulence of {self.sigma_under(c):.2f} m/s leaves by chance along its pattern "
                                    f"({chance:.3f} m)")
                 moved.append(c)
         rest = [c for c in ranking if not any(c is m for m in moved)]
