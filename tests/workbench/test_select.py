@@ -74,6 +74,17 @@ def test_a_fit_started_at_the_answer_ends_there_within_its_standard_error(calls)
     assert isinstance(warm, EffectCalibrator) and warm.gap_train_ < 1.5 * NOISE_M
 
 
+def test_a_fit_without_errors_is_the_same_fit_without_their_jacobian(calls):
+    # a fold of several logs and a prefit read no standard errors: the same values and
+    # gap without the Jacobian's simulations (one per parameter and part)
+    full = EffectCalibrator(("drogue_drag", "tanker_wake")).fit(PARTS)
+    n_full = len(calls)
+    bare = EffectCalibrator(("drogue_drag", "tanker_wake")).fit(PARTS, errors=False)
+    assert bare.x_ == full.x_ and bare.gap_train_ == full.gap_train_
+    assert all(math.isnan(v) for v in bare.stderr_x_) and all(v > 0 for v in full.stderr_x_)
+    assert len(calls) - n_full == n_full - 2 * len(PARTS)
+
+
 def test_a_warm_start_grids_only_the_new_effect_and_polishes_both(calls):
     start = {"drogue_drag": {"scale": 0.7}}      # an earlier step's fit, a little off
     cal = EffectCalibrator(("tanker_wake", "drogue_drag")).fit(PARTS, start=start)

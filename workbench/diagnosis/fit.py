@@ -25,6 +25,7 @@ start (`_grid_scores`).
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 from typing import Iterator, Sequence, Union
 
@@ -174,9 +175,12 @@ class EffectCalibrator:
     def _residual(self, parts, effects: dict) -> np.ndarray:
         return np.concatenate([components(part, effects, self.setup).r for part in parts])
 
-    def fit(self, parts: Sequence[Part], start: dict | None = None) -> "EffectCalibrator":
+    def fit(self, parts: Sequence[Part], start: dict | None = None, errors: bool = True) -> "EffectCalibrator":
         """Fit on `parts`; `start` ({effect: {param: value}}) holds parameters
-        already fitted (warm start): they are not gridded, only polished."""
+        already fitted (warm start): they are not gridded, only polished.
+        `errors` False leaves the standard errors NaN: their Jacobian costs a
+        simulation per parameter and part, for a fit whose errors nobody
+        reads (a fold of several logs, a prefit)."""
         candidate = self.candidate
         cal = calibrated_params(candidate, self.setup.refined)
         ps = [p for _, _, p in cal]
@@ -233,6 +237,16 @@ class EffectCalibrator:
             u = sol.x
         r = res(u)
         x = [from_unit(p, ui) for p, ui in zip(ps, u)]
+        se = self._errors(res, u, r, ps, step) if errors else [math.nan] * n
+        self.x_, self.stderr_x_, self.gap_train_ = x, se, gap(r)
+        self.gap_before_ = gap([gap(self._residual([p], {})) for p in parts])
+        self.params_, self.stderr_ = self._at(x), self._at(se)
+        return self
+
+    @staticmethod
+    def _errors(res, u, r, ps: list, step: np.ndarray) -> list:
+        """The parameters' standard errors at the unit point `u` (residual `r`)."""
+        n = len(ps)
         # standard errors: Gauss-Newton covariance in the unit cube, mapped to the
         # parameters by the local slope of the (possibly logarithmic) map; the
         # Jacobian by steps into the cube from the final point (the solver's own is
@@ -255,10 +269,7 @@ class EffectCalibrator:
             d = 1e-4
             slope = (from_unit(p, min(ui + d, 1)) - from_unit(p, max(ui - d, 0))) / (min(ui + d, 1) - max(ui - d, 0))
             se.append(abs(slope) * s)
-        self.x_, self.stderr_x_, self.gap_train_ = x, se, gap(r)
-        self.gap_before_ = gap([gap(self._residual([p], {})) for p in parts])
-        self.params_, self.stderr_ = self._at(x), self._at(se)
-        return self
+        return se
 
     def _scan(self, parts, res, cal: list, free, u_start, off: list) -> tuple[list, list]:
         """(starts, [(gap, index into starts)] best first) of a fit whose free

@@ -85,7 +85,9 @@ def fit_part(part) -> dict:
             out = {"params": full.params_, "stderr": full.stderr_, "per_log": full.part_gaps(paths)}
         else:
             fold = list(splitter_for(paths).split(paths))[i]
-            cal = EffectCalibrator(candidate, setup).fit(fold.train, start=warm and warm["folds"][i])
+            # a fold's standard errors make one log's (`_one_log_fit`); of several, the all-logs fit's
+            cal = EffectCalibrator(candidate, setup).fit(fold.train, start=warm and warm["folds"][i],
+                                                         errors=len(paths) == 1)
             # the fold's held-out gap from its components (`EffectCalibrator.score`'s RMS of part gaps),
             # each part simulated and compared once
             test = cal.held_out(fold.test)
@@ -149,6 +151,6 @@ def fitted_gap(job) -> float | None:
     a worker process (or a Dask worker)."""
     paths, candidate, setup, warm = job
     try:
-        return EffectCalibrator(candidate, setup).fit(paths, start=warm and warm["all"]).score(paths)
+        return EffectCalibrator(candidate, setup).fit(paths, start=warm and warm["all"], errors=False).score(paths)
     except SimulationFailed:
         return None
