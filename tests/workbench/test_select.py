@@ -490,7 +490,10 @@ def test_a_refused_event_is_looked_at_again_with_a_calibration_freed_beside_it(p
 
     def score(job):
         scored.append(frozenset(job[1]))
-        return table(job)
+        c = table(job)
+        # the wind's own fit in the step stands for seven tries (a scanned time's looks)
+        c.looks = 7 if job[3] is not None and "steady_wind" in job[1] and len(job[1]) == 2 else 1
+        return c
 
     def prefit(job):
         prefitted.append(frozenset(job[1]))
@@ -521,6 +524,9 @@ def test_a_refused_event_is_looked_at_again_with_a_calibration_freed_beside_it(p
     assert_allclose(sum(s.values()), 1.0 - sel.chosen.gap_after_heldout / g0, rtol=1e-12)
     # the event named is the wind; the drag within its tolerance is a calibration
     assert rank_selection(sel, _none(g0), floor, 200)[0].named == ["steady_wind"]
+    # the pair is polished from the event's own fit: it stands on every look that fit took
+    (pair,) = [c for c in sel.fitted if frozenset(c.effects) == pairs[0]]
+    assert pair.looks == 7
     # the report's table and the findings' sentence say what the step took
     table, _ = _selection_blocks({"selection": sel.to_json()})
     assert "steady_wind with drogue_drag freed" in [r[1].text for r in table.rows]

@@ -155,6 +155,8 @@ def _second_look(ok: list, chosen: Candidate | None, current: float, floor: floa
         if not c.success:
             continue
         c.step = k
+        # the event's time was scanned in the step: the pair's polish stands on every look of it
+        c.looks = max(c.looks, own.looks)
         f = next(x for x in c.effects if x not in selected and x != event)
         alone = next((a for a in ok if set(a.effects) == set(selected) | {f}), None)
         why = acceptance(current - c.gap_after_heldout, c.n_params - chosen.n_params, current,
