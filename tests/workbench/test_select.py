@@ -468,6 +468,83 @@ def test_a_trade_whose_set_a_step_fitted_on_every_log_is_not_fitted_there_again(
     assert len(prefitted) == 5      # three events x two calibrations, one known
 
 
+@pytest.mark.parametrize("event, pair_gap", [("gust", 0.02), ("gust", 0.047), ("steady_wind", 0.02)])
+def test_a_refused_event_is_looked_at_again_with_a_calibration_freed_beside_it(event, pair_gap):
+    # after a drogue lift, a gust alone explains 0.014 m of the 0.05 m left (bar 0.02 m;
+    # the step takes a hose drag within its tolerance, naming nothing, and refuses it)
+    # and a drag alone cuts nothing: with the drag freed beside it, the gust explains the
+    # log to 0.02 m (its ring-down needs the drogue's own drag, as on a proving-ground
+    # doublet). Taken as one step, the gust named, the drag within its tolerance a
+    # calibration; at 0.047 m the pair earns nothing and the selection stops. A steady
+    # wind, no transient, is matched by its own size whatever the hardware: not looked at
+    floor, g0 = 0.01, 0.1
+    gaps = type("Table", (dict,), {"__missing__": lambda self, k: 0.5})(
+        {frozenset(["drogue_lift"]): 0.05, frozenset(["drogue_lift", event]): 0.048,
+         frozenset(["drogue_lift", "drogue_drag"]): 0.052, frozenset(["drogue_lift", "hose_drag"]): 0.05,
+         frozenset(["drogue_lift", event, "drogue_drag"]): pair_gap,
+         frozenset(["drogue_lift", event, "hose_drag"]): 0.049,
+         frozenset(["drogue_lift", event, "drogue_drag", "hose_drag"]): pair_gap})
+    for k in ("drogue_drag", event, "hose_drag"):
+        gaps[frozenset([k])] = 0.09
+    table = _table_scorer(gaps, {"drogue_lift": 1.1, event: 2.0, "drogue_drag": 1.05, "hose_drag": 1.1})
+    scored, prefitted = [], []
+
+    def score(job):
+        scored.append(frozenset(job[1]))
+        c = table(job)
+        # the event's own fit in the step stands for seven tries (a scanned time's looks)
+        c.looks = 7 if job[3] is not None and event in job[1] and len(job[1]) == 2 else 1
+        return c
+
+    def prefit(job):
+        prefitted.append(frozenset(job[1]))
+        return 0.9 * gaps[frozenset(job[1])]
+    pool = ["drogue_lift", event, "drogue_drag", "hose_drag"]
+    sel = SEL.forward_select(["L1"], pool, Setup(), _serial, g0, floor, score=score, prefit=prefit)
+    pairs = [frozenset(["drogue_lift", event, "drogue_drag"]), frozenset(["drogue_lift", event, "hose_drag"])]
+    if event == "steady_wind":
+        # no pair fitted: the step's refusal stands
+        assert not prefitted and not any(len(c) == 3 for c in scored)
+        assert sel.chosen.effects == ["drogue_lift"] and "the best addition, hose_drag" in sel.stopped
+        return
+    # each pair was fitted on everything first; the hose drag's (0.9 x 0.049 m) misses the
+    # bar there, 0.05 x (1 - 0.05 x 3 new parameters), and is not scored held out
+    assert prefitted[:2] == pairs and pairs[1] not in scored
+    second = sel.steps[1]
+    if pair_gap > 0.04:
+        assert sel.chosen.effects == ["drogue_lift"] and not second["accepted"]
+        assert "the best addition, hose_drag" in sel.stopped
+        (tried,) = [c for c in sel.fitted if frozenset(c.effects) == pairs[0]]
+        assert f"{event} with drogue_drag freed beside it refused" in tried.why_not_first
+        return
+    assert second["added"] == event and second["freed"] == "drogue_drag" and second["accepted"]
+    assert sel.chosen.effects == ["drogue_lift", "drogue_drag", event]   # the registry's order
+    assert_allclose(second["gap_heldout_after_m"], pair_gap)
+    assert second["new_params"] == 3
+    # the drag cut nothing alone: the gust takes the step's whole share; the shares
+    # add up to the set's shrink
+    s = sel.chosen.shares
+    assert s["drogue_drag"] == 0.0
+    assert_allclose(s[event], (0.05 - pair_gap) / g0, rtol=1e-12)
+    assert_allclose(sum(s.values()), 1.0 - sel.chosen.gap_after_heldout / g0, rtol=1e-12)
+    # the event named is the gust; the drag within its tolerance is a calibration
+    assert rank_selection(sel, _none(g0), floor, 200)[0].named == [event]
+    # the pair is polished from the event's own fit: it stands on every look that fit took
+    (pair,) = [c for c in sel.fitted if frozenset(c.effects) == pairs[0]]
+    assert pair.looks == 7
+    # the report's table and the findings' sentence say what the step took
+    table, _ = _selection_blocks({"selection": sel.to_json()})
+    assert f"{event} with drogue_drag freed" in [r[1].text for r in table.rows]
+    said = _selection(types.SimpleNamespace(selection=sel.to_json()))[0]
+    assert f"then {event} with drogue_drag freed (30 % of the gap, held-out gap 0.050 -> 0.020 m)" in said
+    # the step's own choice (the hose drag, a calibration: within the floor of the others,
+    # naming nothing) was refused; the gust alone was beaten by the pair
+    (refused,) = [c for c in sel.fitted if frozenset(c.effects) == frozenset(["drogue_lift", "hose_drag"])]
+    assert "step 2: adding hose_drag refused" in refused.why_not_first
+    (alone,) = [c for c in sel.fitted if frozenset(c.effects) == frozenset(["drogue_lift", event])]
+    assert alone.why_not_first == f"step 2: adding {event} with drogue_drag freed cut the held-out gap more"
+
+
 def test_calibrations_within_tolerance_count_as_one_explanation_for_the_trade_and_for_choose():
     # a log with no event: a drogue lift and drag within their tolerances (1.1 of +/- 25 %,
     # 0.95 of +/- 10 %) explain it. Their set names no event beyond tolerance: nothing to

@@ -8,7 +8,7 @@ from solver.effects import EFFECTS
 from workbench.diagnosis.explanation import events_of
 from workbench.diagnosis.remainder import sentences
 from workbench.diagnosis.identify import PARALLEL_COS, partners
-from workbench.diagnosis.result import FamilyDiagnosis
+from workbench.diagnosis.result import FamilyDiagnosis, added_label
 
 
 def _bound_note(effect: str, name: str, v: float) -> str:
@@ -51,7 +51,8 @@ def _selection(d: FamilyDiagnosis) -> list[str]:
         gaps = f"held-out gap {s['gap_heldout_before_m']:.3f} -> {s['gap_heldout_after_m']:.3f} m"
         if "traded" in s:
             return f"{s['traded']} for fewer events ({gaps})"
-        return f"{s.get('added') or 'refined ' + s['refined']} ({100 * s['share']:.0f} % of the gap, {gaps})"
+        change = added_label(s) if "added" in s else "refined " + s["refined"]
+        return f"{change} ({100 * s['share']:.0f} % of the gap, {gaps})"
     return ["Forward selection added " + ", then ".join(what(s) for s in steps)
             + f"; it stopped because {sel['stopped']}."]
 

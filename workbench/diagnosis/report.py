@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from workbench.diagnosis.identify import PARALLEL_COS
-from workbench.diagnosis.result import Diagnosis
+from workbench.diagnosis.result import Diagnosis, added_label
 from workbench.diagnosis.fleet import FLEET_PATH, text as fleet_text
 from workbench.provenance import ROOT, code_version, file_sha256
 from workbench.report.document import (Cell, Contents, Document, Figure, Heading, Para, Table, anchor, esc,
@@ -110,7 +110,7 @@ def _step_label(s: dict) -> str:
     """What a selection step did: the effect it added, the form parameters it
     refined, the effect it removed or the trade for fewer events."""
     if "added" in s:
-        return s["added"]
+        return added_label(s)
     return next(f"{k}: {s[k]}" for k in ("refined", "removed", "traded") if k in s)
 
 

@@ -10,6 +10,12 @@ from typing import Optional
 import pandas as pd
 
 
+def added_label(step: dict) -> str:
+    """What a selection step added, in words: the effect, and the
+    calibration freed beside it where the step's second look took a pair."""
+    return f"{step['added']} with {step['freed']} freed" if step.get("freed") else step["added"]
+
+
 @dataclasses.dataclass
 class Candidate:
     """One explanation (an effect, a set of effects, or "none") and its gaps, m.

@@ -155,7 +155,7 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
         # value: it is polished from there with the others from the set's values, not gridded
         # over its whole search range (the forward step's cost again)
         swaps = [(e, f, (paths, ordered([x for x in chosen.effects if x != e] + [f]), setup,
-                         _at_sheet(warm_start(chosen, setup.refined), f, setup))) for e in events for f in spare]
+                         at_sheet(warm_start(chosen, setup.refined), f, setup))) for e in events for f in spare]
         if prefit is not None and swaps:
             # fitted on everything first: a trade that misses the bar there misses it held out
             gaps = _fitted_already(swaps, fitted, paths, setup)
@@ -214,7 +214,7 @@ def _fitted_already(swaps: list, fitted: list, paths: list, setup) -> list:
     return out
 
 
-def _at_sheet(warm: dict, effect: str, setup) -> dict:
+def at_sheet(warm: dict, effect: str, setup) -> dict:
     """`warm` (a `warm_start`) with `effect`'s calibrated parameters at their
     off values (the data sheet's, or the fleet's, `Setup.off`)."""
     sheet = {effect: {k: setup.off(effect, k) for e, k, _ in calibrated_params((effect,), setup.refined)}}
