@@ -335,7 +335,7 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         chosen, stopped = backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed,
                                     stopped, say, chance)
         chosen, stopped = trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before, steps,
-                                 fitted, failed, stopped, say, prefit)
+                                 fitted, failed, stopped, say, prefit, chance)
     return Selection(chosen, fitted, failed, steps, stopped, setup.refined)
 
 
