@@ -2,7 +2,8 @@
 effects' form parameters refined where the family's hardware lets the logs
 tell them (`refine`), an event the later ones made redundant dropped
 (`backward`), and an event traded for a calibration within its data sheet's
-tolerance where the logs cannot tell the two sets apart (`trade`). Each
+tolerance where the logs cannot tell the two sets apart and the event would
+not earn its place back beside the calibration (`trade`). Each
 appends its steps to the selection's and keeps the shares adding up to the
 set's shrink."""
 from __future__ import annotations

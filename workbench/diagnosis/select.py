@@ -27,16 +27,18 @@ current held-out gap: each parameter must buy `PARAM_PENALTY` of what is left
 noise floor of each addition is `widened` by what that motion explains by
 chance along the addition's own pattern, and an addition within it is set
 aside before the step chooses.
-Otherwise, the refused step is looked at once more (`_second_look`): its best
-transient event (a gust, at a time in the log) fitted beside each calibration within a data sheet's tolerance not
-selected (the hardware's spread sets the response an event leaves), a pair
-taken as one step when it earns its place against the set and against the set
-with the calibration alone. Otherwise, or at `MAX_EFFECTS` effects, the
-selection stops and says why.
+Otherwise, the refused step is looked at once more (`_second_look`): its
+best transient event (a gust, at a time in the log) fitted beside each
+calibration within a data sheet's tolerance not selected (the hardware's
+spread sets the response an event leaves), a pair taken as one step when it
+earns its place against the set and against the set with the calibration
+alone. Otherwise, or at `MAX_EFFECTS` effects, the selection stops and says
+why.
 Once it stops, the selected set is revised (`revise`): its form parameters
 refined where the family's hardware lets the logs tell them, an event the
 later ones made redundant dropped, an event traded for a calibration within
-its data sheet's tolerance where the logs cannot tell the two sets apart.
+its data sheet's tolerance where the logs cannot tell the two sets apart and
+the event would not earn its place back beside the calibration.
 Each accepted effect's share of the gap is its step's gain over the baseline
 held-out gap: the shares add up to the selected set's held-out shrink.
 
@@ -239,8 +241,8 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
     """Forward selection over `pool` (effect names) from the baseline, whose
     held-out gap is `gap_before` (m), against the noise floor `floor` (m),
     each step's widened by `chance` when given (`widened`), the refused step
-    looked at once more with a calibration freed beside its best event
-    (`_second_look`, each pair first fitted by `prefit` where given); then the form
+    looked at once more with a calibration freed beside its best transient
+    event (`_second_look`, each pair first fitted by `prefit` where given); then the form
     parameters `refinable` ((effect, parameter), ...) of the selected set
     refined (`refine`), redundant events dropped (`backward`) and events
     traded for calibrations (`trade`, each trade first fitted by `prefit`
