@@ -301,7 +301,8 @@ class EffectCalibrator:
 
         def column(u, i, d):
             return res(np.where(np.arange(len(u)) == i, u + d, u)) - r0
-        others = [i for i in free if cal[i][0] != timed]
+        # solved beside the amplitudes only: with none free, a time's own run is its start
+        others = [i for i in free if cal[i][0] != timed] if amps else []
         d_other = np.array([UNIT_STEP if off_u[i] + UNIT_STEP <= 1.0 else -UNIT_STEP for i in others])
         D_other = np.column_stack([column(off_u, i, d) for i, d in zip(others, d_other)]) if others \
             else np.empty((len(r0), 0))

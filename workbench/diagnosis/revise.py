@@ -172,15 +172,20 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
         out = mapped(mapper, score, [job for _, _, job in swaps])
         failed += [c for c in out if not c.success]
         trades = [(e, f, c) for (e, f, _), c in zip(swaps, out) if c.success]
-        trades += [(None, f, c) for f in spare for c in fitted
-                   if c.success and set(c.effects) == set(chosen.effects) | {f}]
+        # the set with each calibration added, where a step fitted it: a trade of its own,
+        # and what an event traded for that calibration is judged added back against
+        added = [(f, c) for f in spare for c in fitted if c.success and set(c.effects) == set(chosen.effects) | {f}]
+        trades += [(None, f, c) for f, c in added]
+        both = {}
+        for f, c in added:
+            both.setdefault(f, c)
         k = steps[-1]["step"] + 1
         for _, _, c in trades:
             if c not in fitted:
                 c.step = k
                 fitted.append(c)
         ok = [t for t in trades if named(t[2]) < len(events) and not implausibility(t[2])
-              and t[2].gap_after_heldout <= bar and not _earns_back(t, chosen, fitted, floor, chance)]
+              and t[2].gap_after_heldout <= bar and not _earns_back(t, both, floor, chance)]
         if not ok:
             return chosen, stopped
         e, f, c = min(ok, key=lambda t: simplest(t[2], prior))
@@ -202,21 +207,22 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
     return chosen, stopped
 
 
-def _earns_back(trade: tuple, chosen, fitted: list, floor: float, chance) -> bool:
+def _earns_back(trade: tuple, both: dict, floor: float, chance) -> bool:
     """Whether the event a `trade` ((event, calibration, the traded set))
-    takes out of `chosen` would earn its place added back beside the
-    calibration: the set with both against the trade (`acceptance`), where a
-    step fitted that set (the refused step tried every calibration on
-    `chosen`). Measured on a proving-ground engagement: a tracker lag of
-    0.13 s traded for a drogue lift within its tolerance, 0.042 -> 0.046 m
-    held out against a floor of 0.014 m, while beside the lift the lag took
-    the gap to 0.033 m, explaining 0.032 m against a bar of 0.028 m."""
+    takes out of the selected set would earn its place added back beside the
+    calibration: the set with both (`both`, {calibration: the selected set
+    with it}, where a step fitted it: the refused step tried every
+    calibration on the set) against the trade (`acceptance`). Measured on a
+    proving-ground engagement: a tracker lag of 0.13 s traded for a drogue
+    lift within its tolerance, 0.042 -> 0.046 m held out against a floor of
+    0.014 m, while beside the lift the lag took the gap to 0.033 m,
+    explaining 0.032 m against a bar of 0.028 m."""
     e, f, c = trade
-    both = next((b for b in fitted if b.success and set(b.effects) == set(chosen.effects) | {f}), None)
-    if e is None or both is None:
+    if e is None or f not in both:
         return False
-    return acceptance(c.gap_after_heldout - both.gap_after_heldout, both.n_params - c.n_params,
-                      c.gap_after_heldout, widened(floor, chance, c, both)) is None
+    b = both[f]
+    return acceptance(c.gap_after_heldout - b.gap_after_heldout, b.n_params - c.n_params,
+                      c.gap_after_heldout, widened(floor, chance, c, b)) is None
 
 
 def _fitted_already(swaps: list, fitted: list, paths: list, setup) -> list:
