@@ -406,6 +406,33 @@ def test_a_missed_log_is_told_apart_by_the_true_set_s_own_fit(tmp_path):
     assert campaign.truth_fit(path, truth, set(), none, floor, setup)["set"] == "drogue_lift+drogue_drag"
 
 
+def test_a_row_keeps_the_evidence_its_ranking_was_read_from():
+    # every ranked candidate with what it names and the evidence of the ranking rules:
+    # re-read from the row (through json, as committed), the plausibility flag and the
+    # ranking come out as the diagnosis made them
+    import json
+    on_bound = Candidate("drogue_lift+hose_stiffness", ["drogue_lift", "hose_stiffness"], 2,
+                         params={"drogue_lift": {"scale": 1.1}, "hose_stiffness": {"bending": 0.1}},
+                         param_stderr={"drogue_lift": {"scale": 0.03}, "hose_stiffness": {"bending": 2.2}},
+                         gap_after_heldout=0.030, score=0.033, named=["hose_stiffness"],
+                         calibrations={"drogue_lift": "within its tolerance"})
+    plain = Candidate("drogue_lift+steady_wind", ["drogue_lift", "steady_wind"], 3,
+                      params={"drogue_lift": {"scale": 1.2}, "steady_wind": {"vertical_mps": -2.0,
+                                                                            "lateral_mps": 1.0}},
+                      param_stderr={"drogue_lift": {"scale": 0.03}, "steady_wind": {"vertical_mps": 0.5,
+                                                                                    "lateral_mps": 0.1}},
+                      gap_after_heldout=0.035, score=0.040, named=["drogue_lift", "steady_wind"],
+                      calibrations={"drogue_lift": "within its tolerance"})
+    ranking = plausible_first([on_bound, plain], floor=0.01)
+    rows = json.loads(json.dumps([campaign.evidence(c) for c in ranking]))
+    assert [r["events"] for r in rows] == ["steady_wind", "hose_stiffness"]   # calibrations are no event
+    assert rows[1]["implausible"] == implausibility(on_bound) and "on its search bound" in rows[1]["implausible"]
+    again = [Candidate(r["effect"], list(r["params"]), r["n_params"], params=r["params"],
+                       param_stderr=r["param_stderr"], gap_after_heldout=r["gap_heldout"]) for r in rows]
+    assert [c.effect for c in plausible_first(again[::-1], floor=0.01)] == [r["effect"] for r in rows]
+    assert rows[1]["param_stderr"] == on_bound.param_stderr and rows[0]["score"] == plain.score
+
+
 def test_a_campaign_s_misses_are_fitted_again_from_its_rows(tmp_path):
     # what a row records is enough to do the true set's fit again on the kept log
     path, truth = generate("trail", ["drogue_lift"], 11, tmp_path)

@@ -228,6 +228,17 @@ def events(c: Candidate) -> frozenset:
     return frozenset(c.named or ()) - set(c.calibrations or {})
 
 
+def evidence(c: Candidate) -> dict:
+    """A ranked candidate as a row keeps it: what it names and the evidence it
+    was ranked on (held-out gap, score, fitted values with their standard
+    errors, the implausibility flag, probability), so that a rule of the
+    ranking (plausibility, probabilities) can be read against a campaign's
+    fits without fitting them again."""
+    return {"effect": c.effect, "events": _spelled(events(c)), "n_params": c.n_params,
+            "gap_heldout": c.gap_after_heldout, "score": c.score, "probability": c.probability,
+            "implausible": c.implausible, "step": c.step, "params": c.params, "param_stderr": c.param_stderr}
+
+
 def _spelled(effects: set) -> str:
     """A set of events as the rows and the confusion matrix spell it."""
     return "+".join(sorted(effects)) or "none"
@@ -288,7 +299,8 @@ def run_one(job) -> dict:
             "nameable": not unnameable, "unnameable": unnameable,
             "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
             "shrink_heldout": top.shrink_heldout, "noise_floor": d.noise_floor,
-            "ranking": [c.effect for c in d.ranking], "truth_fit": oracle, "truth_fit_s": t_fit,
+            "ranking": [c.effect for c in d.ranking], "candidates": [evidence(c) for c in d.ranking],
+            "selected": d.selection.get("effects"), "truth_fit": oracle, "truth_fit_s": t_fit,
             "generate_s": t_gen, "diagnose_s": d.wall_s}
 
 
