@@ -97,6 +97,22 @@ def test_a_fit_on_its_search_bound_is_implausible():
     assert implausibility(_cand("none", {}, 0.1)) is None
 
 
+@pytest.mark.parametrize("effect, name, value, stderr, flagged", [
+    # the hose bending a proving-ground doublet's steady wind came with: the gap is flat in
+    # it there (0.108 +/- 2.2), and the bound 0.1 is as good a fit
+    ("hose_stiffness", "bending", 0.108, 2.2, True),
+    ("hose_stiffness", "bending", 0.108, 0.005, False),     # told from the bound: 1.6 standard errors
+    ("drogue_drag", "scale", 2.9, 0.2, True),               # the upper bound, 3, within reach
+    ("drogue_drag", "scale", 2.5, 0.2, False),
+    ("hose_stiffness", "bending", 0.108, math.nan, False),  # no standard error: no evidence of it
+])
+def test_a_fit_within_a_standard_error_of_its_search_bound_is_implausible(effect, name, value, stderr, flagged):
+    c = _cand(effect, {effect: {name: value}}, 0.1)
+    c.param_stderr = {effect: {name: stderr}}
+    why = implausibility(c)
+    assert (why is not None and "within a standard error of its search bound" in why) == flagged, why
+
+
 def test_implausible_ranks_below_a_plausible_explanation_of_similar_gap():
     hi = EFFECTS["drogue_drag"].params["scale"].search[1]
     bad = _cand("drogue_drag", {"drogue_drag": {"scale": hi}}, 0.100)

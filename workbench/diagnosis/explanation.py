@@ -18,6 +18,8 @@ from the events it names:
 """
 from __future__ import annotations
 
+import math
+
 from solver.effects import EFFECTS, Param
 from workbench.diagnosis.result import Candidate
 from workbench.diagnosis.setup import to_unit
@@ -90,16 +92,26 @@ BOUND_SHARE = 0.01   # a value within 1 % of its search range (in the search's s
 def implausibility(c: Candidate) -> str | None:
     """Why `c`'s fit is not physically plausible, or None: a value outside its
     parameter's physical range lo..hi, or on a bound of its search range (the
-    logs want it there or beyond: the effect is standing in for another); a
-    time in the log (`Param.scan_s`) is bounded by the log, not the physics."""
+    logs want it there or beyond: the effect is standing in for another), or
+    within one standard error of it (`Candidate.param_stderr`: the logs cannot
+    tell it from the bound; a fit left just inside where the gap is flat in
+    it, as a hose bending of 0.108 +/- 2.2 against the bound 0.1 beside a
+    proving-ground doublet's steady wind); a time in the log (`Param.scan_s`)
+    is bounded by the log, not the physics."""
     out = []
     # every fitted value, a refined form parameter's (`Effect.refined`) too
     for eff, name, v in ((e, k, v) for e, ps in c.params.items() for k, v in ps.items()):
         p = EFFECTS[eff].params[name]
         if not (p.lo <= v <= p.hi):
             out.append(f"{eff}.{name} = {v:.3g} outside its physical range {p.lo:g}..{p.hi:g} {p.unit}")
-        elif p.search and not p.scan_s and not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
-            out.append(f"{eff}.{name} = {v:.3g} on its search bound ({p.search[0]:g}..{p.search[1]:g})")
+        elif p.search and not p.scan_s:
+            lo, hi = p.search
+            se = (c.param_stderr or {}).get(eff, {}).get(name, math.nan)
+            if not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
+                out.append(f"{eff}.{name} = {v:.3g} on its search bound ({lo:g}..{hi:g})")
+            elif se > 0 and (v - se <= lo or v + se >= hi):    # no standard error (NaN): no evidence
+                out.append(f"{eff}.{name} = {v:.3g} +/- {se:.2g}, within a standard error of its search bound "
+                           f"({lo:g}..{hi:g})")
     return "; ".join(out) or None
 
 
