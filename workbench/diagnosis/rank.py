@@ -15,8 +15,8 @@ several at once by forward selection, score each held out and rank them.
    them) by held-out gap times (1 + `PARAM_PENALTY` per parameter), "none"
    last; "none" first when no effect earned its place. A candidate whose
    simulation fails is recorded with the reason and left out of the ranking.
-   A fit with a value on its search bound or outside its physical range is
-   flagged and ranked behind every plausible explanation (incl. "none") whose
+   A fit with a value on its search bound (or within a standard error of it)
+   or outside its physical range is flagged and ranked behind every plausible explanation (incl. "none") whose
    held-out gap is within the noise floor of its own. An explanation names
    its events apart from model form and from calibrations within a data
    sheet's tolerance (`explanation`).

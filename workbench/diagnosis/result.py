@@ -49,7 +49,7 @@ class Candidate:
     # positions over the log): each a try of the best of which chance may clear a bar
     looks: int = 1
     probability: Optional[float] = None   # from held-out evidence, over the family's ranked candidates
-    implausible: Optional[str] = None     # a fitted value on a search bound or outside its physical range
+    implausible: Optional[str] = None     # a value on (or a standard error from) a search bound, or out of range
     step: Optional[int] = None
     shares: Optional[dict] = None
     named: Optional[list] = None          # the events it names (`explanation.explain`)

@@ -67,9 +67,10 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
           prior: dict | None = None, chance: Callable | None = None) -> tuple[Candidate, str | None]:
     """(the addition a step takes, why it is refused or None). The best
     (`choose`); but when its fit is implausible (`explanation.implausibility`:
-    on a search bound or outside its physical range, standing in for another
-    effect) and a plausible addition's held-out gap is similar, within the
-    noise floor or one parameter's worth of the gap left (`PARAM_PENALTY` x
+    on a search bound, within a standard error of it or outside its physical
+    range, standing in for another effect) and a plausible addition's
+    held-out gap is similar, within the noise floor or one parameter's worth
+    of the gap left (`PARAM_PENALTY` x
     `current`), the plausible one first, the implausible one only if the
     plausible one is refused and it is not. An addition the rule refuses is
     set aside before the best is chosen, where another earns its place: a
