@@ -16,10 +16,11 @@ several at once by forward selection, score each held out and rank them.
    last; "none" first when no effect earned its place. A candidate whose
    simulation fails is recorded with the reason and left out of the ranking.
    A fit with a value on its search bound (or within a standard error of it)
-   or outside its physical range is flagged and ranked behind every plausible explanation (incl. "none") whose
-   held-out gap is within the noise floor of its own. An explanation names
-   its events apart from model form and from calibrations within a data
-   sheet's tolerance (`explanation`).
+   or outside its physical range is flagged and ranked behind every
+   plausible explanation (incl. "none") whose held-out gap is within the
+   noise floor of its own. An explanation names its events apart from model
+   form and from calibrations within a data sheet's tolerance
+   (`explanation`).
    Each ranked candidate carries a probability: the deterministic ones Akaike
    weights of their held-out residuals under the log's noise model
    (`probabilities`), each against the best over the effective number of
