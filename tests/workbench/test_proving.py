@@ -439,8 +439,10 @@ def test_a_row_keeps_the_evidence_its_ranking_was_read_from():
                                                                                     "lateral_mps": 0.1}},
                       gap_after_heldout=0.035, score=0.040, named=["drogue_lift", "steady_wind"],
                       calibrations={"drogue_lift": "within its tolerance"})
+    on_bound.weighed_on = {"separating_components": 12.0, "chance_m": 0.004}
     ranking = plausible_first([on_bound, plain], floor=0.01)
     rows = json.loads(json.dumps([campaign.evidence(c) for c in ranking]))
+    assert rows[1]["weighed_on"] == on_bound.weighed_on and rows[0]["weighed_on"] is None
     assert [r["events"] for r in rows] == ["steady_wind", "hose_stiffness"]   # calibrations are no event
     assert rows[1]["implausible"] == implausibility(on_bound) and "on its search bound" in rows[1]["implausible"]
     again = [Candidate(r["effect"], list(r["params"]), r["n_params"], params=r["params"],

@@ -781,6 +781,13 @@ def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_set
     assert_allclose(form.probability, plain["form"], rtol=1e-12)
     assert_allclose(by["turbulence"].probability, p * plain["none"], rtol=1e-12)
     assert_allclose(sum(c.probability for c in ranking), 1.0, rtol=1e-12)
+    # what each was weighed on is kept with it: the weights come out again from it alone
+    again = probabilities([c.gap_after_heldout for c in det], [c.n_params for c in det], 0.01,
+                          [c.weighed_on["separating_components"] for c in det],
+                          [c.weighed_on["chance_m"] for c in det])
+    assert_allclose(again, [plain[c.effect if c is not form else "form"] for c in det], rtol=1e-12)
+    assert by[joint.effect].weighed_on == {"presence": {"turbulence": p}}
+    assert by[joint.effect].to_json()["weighed_on"] == {"presence": {"turbulence": p}}
 
 
 def test_an_event_within_the_offset_a_real_random_motion_leaves_by_chance_is_selected_again_against_it():

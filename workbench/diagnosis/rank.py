@@ -245,10 +245,16 @@ def rank_selection(sel: Selection, none: Candidate, floor: float, n_heldout: flo
         c.named, c.calibrations = explain(c.effects, c.params, prior)
     det = [c for c in ranking if not set(c.effects) & set(MEASURED)]
     best = min(det, key=lambda c: c.gap_after_heldout)
-    weights = probabilities([c.gap_after_heldout for c in det], [c.n_params for c in det], floor,
-                            [separating_components(c, best, n_heldout) for c in det],
-                            [chance(c, best) if chance is not None else 0.0 for c in det])
+    n = [separating_components(c, best, n_heldout) for c in det]
+    offsets = [chance(c, best) if chance is not None else 0.0 for c in det]
+    weights = probabilities([c.gap_after_heldout for c in det], [c.n_params for c in det], floor, n, offsets)
     with_random_share(ranking, {id(c): w for c, w in zip(det, weights)}, presence or {})
+    # what each probability rests on, kept so that it can be read (and weighed again) later
+    for c, k, x in zip(det, n, offsets):
+        c.weighed_on = {"separating_components": float(k), "chance_m": float(x)}
+    for c in ranking:
+        if set(c.effects) & set(MEASURED):
+            c.weighed_on = {"presence": {e: (presence or {}).get(e, 0.0) for e in c.effects if e in MEASURED}}
     return ranking
 
 

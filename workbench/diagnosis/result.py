@@ -49,6 +49,9 @@ class Candidate:
     # positions over the log): each a try of the best of which chance may clear a bar
     looks: int = 1
     probability: Optional[float] = None   # from held-out evidence, over the family's ranked candidates
+    # what `probability` was weighed on (`rank.rank_selection`): the separating held-out
+    # components and the chance offset (m) against the best, or the presence of its measured effects
+    weighed_on: Optional[dict] = None
     implausible: Optional[str] = None     # a value on (or a standard error from) a search bound, or out of range
     step: Optional[int] = None
     shares: Optional[dict] = None
@@ -77,7 +80,7 @@ class Candidate:
             out.update({"gap_before_train": self.gap_before_train,
                         "gap_after_all_fit_per_log": self.gap_after_all_fit_per_log, "folds": self.folds,
                         "screen_share": self.screen_share, "wall_s": self.wall_s})
-        for k in ("why_not_first", "why", "implausible", "step", "shares", "named", "calibrations"):
+        for k in ("why_not_first", "why", "implausible", "step", "shares", "named", "calibrations", "weighed_on"):
             if getattr(self, k) is not None:
                 out[k] = getattr(self, k)
         return out

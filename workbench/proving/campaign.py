@@ -231,12 +231,13 @@ def events(c: Candidate) -> frozenset:
 def evidence(c: Candidate) -> dict:
     """A ranked candidate as a row keeps it: what it names and the evidence it
     was ranked on (held-out gap, score, fitted values with their standard
-    errors, the implausibility flag, probability), so that a rule of the
-    ranking (plausibility, probabilities) can be read against a campaign's
-    fits without fitting them again."""
+    errors, the implausibility flag, probability and what it was weighed on),
+    so that a rule of the ranking (plausibility, probabilities) can be read
+    against a campaign's fits without fitting them again."""
     return {"effect": c.effect, "events": _spelled(events(c)), "n_params": c.n_params,
             "gap_heldout": c.gap_after_heldout, "score": c.score, "probability": c.probability,
-            "implausible": c.implausible, "step": c.step, "params": c.params, "param_stderr": c.param_stderr}
+            "implausible": c.implausible, "step": c.step, "params": c.params, "param_stderr": c.param_stderr,
+            "weighed_on": c.weighed_on}
 
 
 def _spelled(effects: set) -> str:
