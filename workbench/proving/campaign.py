@@ -295,12 +295,11 @@ def run_one(job) -> dict:
             # the probability of those events: every ranked explanation claiming just them
             "top_named_probability": sum(c.probability or 0.0 for c in d.ranking if events(c) == named),
             "top_implausible": top.implausible,
-            "implausible": {c.effect: c.implausible for c in d.ranking if c.implausible},
             "correct": named == true, "recall": _recall(true, named),
             "nameable": not unnameable, "unnameable": unnameable,
             "gap_before": top.gap_before, "gap_after_heldout": top.gap_after_heldout,
             "shrink_heldout": top.shrink_heldout, "noise_floor": d.noise_floor,
-            "ranking": [c.effect for c in d.ranking], "candidates": [evidence(c) for c in d.ranking],
+            "candidates": [evidence(c) for c in d.ranking],
             "selected": d.selection.get("effects"), "truth_fit": oracle, "truth_fit_s": t_fit,
             "generate_s": t_gen, "diagnose_s": d.wall_s}
 
