@@ -788,6 +788,28 @@ def test_a_set_with_turbulence_takes_the_presence_share_of_its_deterministic_set
     assert_allclose(again, [plain[c.effect if c is not form else "form"] for c in det], rtol=1e-12)
     assert by[joint.effect].weighed_on == {"presence": {"turbulence": p}}
     assert by[joint.effect].to_json()["weighed_on"] == {"presence": {"turbulence": p}}
+    # a campaign's row keeps it (`campaign.evidence`, through json as committed): weighed again
+    # from the row alone by the same rule, the same probabilities; by another rule, its own
+    import json
+    from workbench.proving import campaign
+    kept = json.loads(json.dumps([campaign.evidence(c) for c in ranking]))
+    row = dict(kind="trail", effects=["tanker_wake"], truth="tanker_wake", top="tanker_wake", correct=True,
+               recall=1.0, nameable=True, shrink_heldout=0.8, detectable=True, generate_s=1.0, diagnose_s=1.0,
+               noise_floor=0.01, candidates=kept)
+    r = {"family": "single", "rows": [row], "generate_failed": [], "generator": "independent", "seed": 1,
+         "n_elements_diagnosis": 20, "wall_s": 1.0, "logs_dir": "logs"}
+    same = campaign.reweigh(r)["rows"][0]
+    assert_allclose([k["probability"] for k in same["candidates"]], [c.probability for c in ranking], rtol=1e-12)
+    named = sum(c.probability for c in ranking if campaign.events(c) == campaign.events(ranking[0]))
+    assert_allclose(same["top_named_probability"], named, rtol=1e-12)
+
+    def even(gaps, n_params, floor, n, chance):
+        return [1.0 / len(gaps)] * len(gaps)
+    out = campaign.reweigh(r, even)
+    share = {k["effect"]: k["probability"] for k in out["rows"][0]["candidates"]}
+    assert_allclose(share[joint.effect], p / len(det), rtol=1e-12)
+    assert_allclose(out["brier_top"], (1.0 - out["rows"][0]["top_named_probability"]) ** 2, rtol=1e-12)
+    assert r["rows"][0]["candidates"] is kept   # the campaign read in is left as it was
 
 
 def test_an_event_within_the_offset_a_real_random_motion_leaves_by_chance_is_selected_again_against_it():

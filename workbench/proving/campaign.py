@@ -40,6 +40,10 @@ floor, the selection missed a better explanation; where it does not, the
 logs do not prefer the truth under the model's form (the form differences or
 a near-parallel effect take its place), and no rule of the selection could
 have named it. `rescore` does it again on a campaign's kept logs.
+
+Each row keeps its ranked candidates' evidence (`evidence`), what each
+probability was weighed on included: `reweigh` weighs a campaign's
+probabilities again by another rule and sums its figures again.
 """
 from __future__ import annotations
 
@@ -60,7 +64,7 @@ from solver.effects import EFFECTS
 from workbench.diagnosis.evaluate import evaluate, gap, record
 from workbench.diagnosis.explanation import within_tolerance
 from workbench.diagnosis.fit import ordered
-from workbench.diagnosis.rank import diagnose_family
+from workbench.diagnosis.rank import diagnose_family, probabilities, with_random_share
 from workbench.diagnosis.score import score_candidate
 from workbench.errors import SimulationFailed
 from workbench.parallel import Mapper
@@ -210,6 +214,40 @@ def rescore(r: dict, workers: int | None = None) -> dict:
         fits = mapper(_refit, jobs)
     for row, fit in zip(misses, fits):
         row["truth_fit"] = fit
+    return _summed_again(r, rows)
+
+
+def reweigh(r: dict, rule: Callable = probabilities) -> dict:
+    """The campaign `r` with its probabilities weighed again by `rule` (of
+    `rank.probabilities`' arguments: the held-out gaps, parameter counts,
+    noise floor, separating components and chance offsets of the
+    deterministic candidates) from what each ranked candidate's was weighed
+    on (`weighed_on`), shared with the measured effects as the diagnosis
+    shares them (`rank.with_random_share`), and its figures summed again: a
+    rule of the probabilities read against a campaign's fits without
+    fitting them again. A row whose candidates lack it is left as it was."""
+    rows = [_reweighed(dict(row), rule, row["noise_floor"]) if row.get("candidates")
+            and all(c.get("weighed_on") for c in row["candidates"]) else row for row in r["rows"]]
+    return _summed_again(r, rows)
+
+
+def _reweighed(row: dict, rule: Callable, floor: float) -> dict:
+    kept = row["candidates"]
+    ranked = [Candidate(c["effect"], [] if c["effect"] == "none" else c["effect"].split("+"), c["n_params"],
+                        params=c["params"], gap_after_heldout=c["gap_heldout"]) for c in kept]
+    det = [(c, k["weighed_on"]) for c, k in zip(ranked, kept) if "presence" not in k["weighed_on"]]
+    presence = {e: p for k in kept for e, p in k["weighed_on"].get("presence", {}).items()}
+    weights = rule([c.gap_after_heldout for c, _ in det], [c.n_params for c, _ in det], floor,
+                   [w["separating_components"] for _, w in det], [w["chance_m"] for _, w in det])
+    with_random_share(ranked, {id(c): x for (c, _), x in zip(det, weights)}, presence)
+    row["candidates"] = [dict(k, probability=c.probability) for c, k in zip(ranked, kept)]
+    row["top_probability"] = ranked[0].probability
+    row["top_named_probability"] = sum(k["probability"] for k in row["candidates"] if k["events"] == kept[0]["events"])
+    return row
+
+
+def _summed_again(r: dict, rows: list) -> dict:
+    """The campaign `r` with `rows` in place of its own and its figures summed again."""
     keep = {k: r[k] for k in ("generate_failed", "generator", "seed", "n_elements_diagnosis", "wall_s", "logs_dir")}
     return {**summarise(rows, r["family"]), **keep, "rows": rows}
 
