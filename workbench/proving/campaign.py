@@ -226,18 +226,18 @@ def reweigh(r: dict, rule: Callable = probabilities) -> dict:
     shares them (`rank.with_random_share`), and its figures summed again: a
     rule of the probabilities read against a campaign's fits without
     fitting them again. A row whose candidates lack it is left as it was."""
-    rows = [_reweighed(dict(row), rule, row["noise_floor"]) if row.get("candidates")
+    rows = [_reweighed(dict(row), rule) if row.get("candidates")
             and all(c.get("weighed_on") for c in row["candidates"]) else row for row in r["rows"]]
     return _summed_again(r, rows)
 
 
-def _reweighed(row: dict, rule: Callable, floor: float) -> dict:
+def _reweighed(row: dict, rule: Callable) -> dict:
     kept = row["candidates"]
     ranked = [Candidate(c["effect"], [] if c["effect"] == "none" else c["effect"].split("+"), c["n_params"],
                         params=c["params"], gap_after_heldout=c["gap_heldout"]) for c in kept]
     det = [(c, k["weighed_on"]) for c, k in zip(ranked, kept) if "presence" not in k["weighed_on"]]
     presence = {e: p for k in kept for e, p in k["weighed_on"].get("presence", {}).items()}
-    weights = rule([c.gap_after_heldout for c, _ in det], [c.n_params for c, _ in det], floor,
+    weights = rule([c.gap_after_heldout for c, _ in det], [c.n_params for c, _ in det], row["noise_floor"],
                    [w["separating_components"] for _, w in det], [w["chance_m"] for _, w in det])
     with_random_share(ranked, {id(c): x for (c, _), x in zip(det, weights)}, presence)
     row["candidates"] = [dict(k, probability=c.probability) for c, k in zip(ranked, kept)]
