@@ -89,8 +89,8 @@ def event_count(effects: list, params: dict, prior: dict | None = None) -> int:
 BOUND_SHARE = 0.01   # a value within 1 % of its search range (in the search's scale) of a bound is on it
 
 
-def implausibility(c: Candidate) -> str | None:
-    """Why `c`'s fit is not physically plausible, or None: a value outside its
+def implausibility(c: Candidate, effects=None) -> str | None:
+    """Why `c`'s fit (of `effects` only, where given) is not physically plausible, or None: a value outside its
     parameter's physical range lo..hi, or on a bound of its search range (the
     logs want it there or beyond: the effect is standing in for another), or
     within one standard error of it (`Candidate.param_stderr`: the logs cannot
@@ -100,7 +100,8 @@ def implausibility(c: Candidate) -> str | None:
     is bounded by the log, not the physics."""
     out = []
     # every fitted value, a refined form parameter's (`Effect.refined`) too
-    for eff, name, v in ((e, k, v) for e, ps in c.params.items() for k, v in ps.items()):
+    for eff, name, v in ((e, k, v) for e, ps in c.params.items() for k, v in ps.items()
+                         if effects is None or e in effects):
         p = EFFECTS[eff].params[name]
         if not (p.lo <= v <= p.hi):
             out.append(f"{eff}.{name} = {v:.3g} outside its physical range {p.lo:g}..{p.hi:g} {p.unit}")

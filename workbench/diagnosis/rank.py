@@ -38,7 +38,8 @@ several at once by forward selection, score each held out and rank them.
    what the turbulence explains by chance along the step's pattern (at
    Sidak's quantile for the best of the additions the step tried,
    `accept.chance_quantile`), added in quadrature (`within_chance`,
-   `turbulence.RandomEffect.chance_offset`), the
+   `turbulence.RandomEffect.chance_offset`), or its fit is implausible
+   (what a fit on its bound stands in for may be that motion), the
    selection runs again with every step held to that (a random motion's low
    frequencies lie alike in both halves of a log, so an effect whose pattern
    they share cuts the held-out gap too; one whose pattern they miss, a
@@ -274,13 +275,17 @@ def within_chance(sel: Selection, turb, floor: float) -> list[str]:
     noise floor `widened` by what the turbulence (`turb`, a
     `turbulence.RandomEffect`) explains by chance along the step's own
     pattern (`RandomEffect.chance_offset`), the step's pick the best of all
-    it tried; none unless its random motion is real."""
+    it tried, or whose fit the step made implausible (`implausibility` of
+    what it added: beside a real random motion, a fit on its bound may stand
+    in for that motion, `select._take`); none unless its random motion is
+    real."""
     if sel.chosen is None or turb.estimate is None or not turb.estimate.real:
         return []
     return [s["added"] for s, before, after in sel.additions()
             if not s.get("standing") and s["added"] in sel.chosen.effects
-            and acceptance(s["gain_m"], s["new_params"], s["gap_heldout_before_m"],
-                           widened(floor, turb.chance_offset, before, after, 1 + len(s["alternatives"])))]
+            and (acceptance(s["gain_m"], s["new_params"], s["gap_heldout_before_m"],
+                            widened(floor, turb.chance_offset, before, after, 1 + len(s["alternatives"])))
+                 or implausibility(after, set(after.effects) - set(before.effects if before else ())))]
 
 
 def _simulated(c: Candidate | None) -> dict:
@@ -340,11 +345,13 @@ def diagnose_family(paths: list[str], setup: Setup = Setup(), mapper: Callable |
         # whose pattern they share cuts the held-out gap by chance too, so once the motion
         # is real each step must beat what it explains along that step's pattern as well
         say(f"{', '.join(chance)} within what turbulence of at most {turb.estimate.sigma_mps:.2f} m/s explains by "
-            f"chance along its pattern: selecting again, each step against the noise floor and that")
+            f"chance along its pattern, or implausible beside it: selecting again, each step against the noise "
+            f"floor and that")
         sel = forward_select(paths, pool, setup, mapper, gap_before_heldout, floor, say=say,
                              chance=turb.chance_offset, refinable=forms, prefit=fitted_gap)
         sel.stopped += (f" (each step against the noise floor and what the random motion explains by chance "
-                        f"along its pattern: {', '.join(chance)} had been accepted within it)")
+                        f"along its pattern, and plausible: {', '.join(chance)} had been accepted within it or "
+                        f"implausible)")
         turb = random_candidate(paths, base, sel.chosen, setup, mapper)
     failed += sel.failed
     excluded.pop("turbulence", None)

@@ -25,8 +25,8 @@ parameter penalty, gain > `PARAM_PENALTY` x (its new parameters) x the
 current held-out gap: each parameter must buy `PARAM_PENALTY` of what is left
 (Occam's rule). Given `chance` (once a real random motion is measured), the
 noise floor of each addition is `widened` by what that motion explains by
-chance along the addition's own pattern, and an addition within it is set
-aside before the step chooses.
+chance along the addition's own pattern, and an addition within it, or
+implausible, is set aside before the step chooses.
 Otherwise, the refused step is looked at once more (`_second_look`): its
 best transient event (a gust, at a time in the log) fitted beside each
 calibration within a data sheet's tolerance not selected (the hardware's
@@ -83,12 +83,22 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
     random motion explains by chance along the change's pattern), each
     addition is held to the noise floor `widened` by it (the best of all
     tried): a random motion's low frequencies may favour a steady effect
-    that explains by chance more than another explains for real."""
+    that explains by chance more than another explains for real; and an
+    implausible addition is refused outright, for what a fit on its bound
+    stands in for may be that motion (measured on an own-solver doublet in
+    1.05 m/s turbulence: a gust fitted at -5.6 +/- 0.8 m/s against its 6 m/s
+    bound explained 0.114 m of a 0.202 m held-out gap, beyond the 0.105 m
+    bar its chance offset set, the largest burst of the random motion taken
+    for an event)."""
     tried = len(ok)
+    selected = tuple(chosen.effects) if chosen else ()
 
     def verdict(c):
         n_new = c.n_params - (chosen.n_params if chosen else 0)
-        return acceptance(current - c.gap_after_heldout, n_new, current, widened(floor, chance, chosen, c, tried))
+        why = acceptance(current - c.gap_after_heldout, n_new, current, widened(floor, chance, chosen, c, tried))
+        bound = implausibility(c, _added(c, selected)) if chance is not None else None
+        return why or (bound and f"is implausible beside a real random motion ({bound}): a fit the logs push to "
+                                 f"its bound stands in for something else, and that may be the random motion")
     ok = [c for c in ok if verdict(c) is None] or ok
     best = choose(ok, floor, prior)
     plausible = [c for c in ok if not implausibility(c)]
