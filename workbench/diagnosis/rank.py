@@ -75,7 +75,7 @@ from workbench.diagnosis.reel import EFFECT, established, reel_evidence, reel_tr
 from workbench.diagnosis.result import Candidate, Diagnosis, FamilyDiagnosis
 from workbench.diagnosis.screen import screen_scores
 from workbench.diagnosis.score import fitted_gap
-from workbench.diagnosis.select import Selection, forward_select, with_random
+from workbench.diagnosis.select import Selection, forward_select, implausible_transient, with_random
 from workbench.diagnosis import fleet
 from workbench.diagnosis.setup import (DEFAULT_ELEMENTS, GAP_DEFINITION, LIGHT_TURBULENCE_MPS, MAX_EFFECTS,
                                        NOISE_FACTOR, PARAM_PENALTY, Setup, applicable, calibrated_params, family_of,
@@ -275,17 +275,16 @@ def within_chance(sel: Selection, turb, floor: float) -> list[str]:
     noise floor `widened` by what the turbulence (`turb`, a
     `turbulence.RandomEffect`) explains by chance along the step's own
     pattern (`RandomEffect.chance_offset`), the step's pick the best of all
-    it tried, or whose fit the step made implausible (`implausibility` of
-    what it added: beside a real random motion, a fit on its bound may stand
-    in for that motion, `select._take`); none unless its random motion is
-    real."""
+    it tried, or that added a transient event fitted implausibly (beside a
+    real random motion, its largest burst: `select.implausible_transient`);
+    none unless its random motion is real."""
     if sel.chosen is None or turb.estimate is None or not turb.estimate.real:
         return []
     return [s["added"] for s, before, after in sel.additions()
             if not s.get("standing") and s["added"] in sel.chosen.effects
             and (acceptance(s["gain_m"], s["new_params"], s["gap_heldout_before_m"],
                             widened(floor, turb.chance_offset, before, after, 1 + len(s["alternatives"])))
-                 or implausibility(after, set(after.effects) - set(before.effects if before else ())))]
+                 or implausible_transient(after, before.effects if before else ()))]
 
 
 def _simulated(c: Candidate | None) -> dict:
