@@ -38,8 +38,8 @@ several at once by forward selection, score each held out and rank them.
    what the turbulence explains by chance along the step's pattern (at
    Sidak's quantile for the best of the additions the step tried,
    `accept.chance_quantile`), added in quadrature (`within_chance`,
-   `turbulence.RandomEffect.chance_offset`), or its fit is implausible
-   (what a fit on its bound stands in for may be that motion), the
+   `turbulence.RandomEffect.chance_offset`), or it added a transient
+   fitted implausibly (a gust on its bound: that motion's largest burst), the
    selection runs again with every step held to that (a random motion's low
    frequencies lie alike in both halves of a log, so an effect whose pattern
    they share cuts the held-out gap too; one whose pattern they miss, a

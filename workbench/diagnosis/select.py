@@ -26,7 +26,8 @@ current held-out gap: each parameter must buy `PARAM_PENALTY` of what is left
 (Occam's rule). Given `chance` (once a real random motion is measured), the
 noise floor of each addition is `widened` by what that motion explains by
 chance along the addition's own pattern, and an addition within it, or
-implausible, is set aside before the step chooses.
+adding a transient fitted implausibly (`implausible_transient`), is set
+aside before the step chooses.
 Otherwise, the refused step is looked at once more (`_second_look`): its
 best transient event (a gust, at a time in the log) fitted beside each
 calibration within a data sheet's tolerance not selected (the hardware's
