@@ -870,6 +870,48 @@ def test_a_transient_fitted_on_its_bound_beside_a_real_random_motion_is_selected
     assert not refused["accepted"] and "implausible beside a real random motion" in again.stopped
 
 
+@pytest.mark.parametrize("spread_mps, taken", [(0.01, True), (0.2, True), (0.3, False), (2.0, False)])
+def test_a_transient_whose_halves_disagree_on_its_sign_is_refused_whatever_it_explains(spread_mps, taken):
+    # a gust explaining 0.2 m against a 0.01 m floor, fitted at 0.5 m/s: established where its
+    # standard error (the two folds' spread folded in) leaves it beyond NOISE_FACTOR of them from
+    # none (0.5 / 0.2 = 2.5), not where it does not (0.5 / 0.3 = 1.7), with or without a random motion
+    floor = 0.01
+    plain = _scorer({"drogue_lift": 1.0, "gust": 0.2}, floor)
+
+    def score(job):
+        c = plain(job)
+        if "gust" in c.effects:
+            c.param_stderr["gust"]["vertical_mps"] = spread_mps
+        return c
+    g0 = math.sqrt(floor ** 2 + 1.0 + 0.2 ** 2)
+    for chance in (None, lambda a, b: 0.0):
+        sel = SEL.forward_select(["L1"], POOL + ["gust"], Setup(), _serial, g0, floor, score=score, chance=chance)
+        assert ("gust" in sel.chosen.effects) == taken
+        if not taken:
+            assert sel.chosen.effects == ["drogue_lift"]
+            assert "gust.vertical_mps = 0.5 +/- " in sel.stopped and "not established" in sel.stopped
+
+
+def test_only_a_transients_amplitude_is_held_to_its_standard_error():
+    # a calibration or a steady effect near its off value is a small effect, not an unseen one; a
+    # fit with no standard error is no evidence either way; the time is no amplitude
+    def cand(effects, params, stderr):
+        return Candidate("+".join(effects), effects, 2, params=params, param_stderr=stderr)
+    wide = {"gust": {"vertical_mps": 3.0, "start_s": 1.0}, "drogue_drag": {"scale": 5.0},
+            "steady_wind": {"vertical_mps": 5.0}}
+    c = cand(["drogue_drag", "steady_wind"], {"drogue_drag": {"scale": 1.1}, "steady_wind": {"vertical_mps": 0.5}},
+             wide)
+    assert SEL.unestablished(c, ()) is None
+    gust = {"vertical_mps": -2.24, "start_s": 16.96}
+    assert SEL.unestablished(cand(["gust"], {"gust": gust}, {"gust": {"vertical_mps": math.nan}}), ()) is None
+    assert SEL.unestablished(cand(["gust"], {"gust": gust}, {"gust": {"vertical_mps": 0.5, "start_s": 30.0}}),
+                             ()) is None
+    why = SEL.unestablished(cand(["gust"], {"gust": gust}, {"gust": {"vertical_mps": 2.02, "start_s": 0.8}}), ())
+    assert "gust.vertical_mps = -2.24 +/- 2 m/s" in why and "start_s" not in why
+    # a gust already selected is not judged again by a later step
+    assert SEL.unestablished(cand(["gust"], {"gust": gust}, {"gust": {"vertical_mps": 2.02}}), ("gust",)) is None
+
+
 @pytest.mark.parametrize("tried", [1, 2, 7, 30])
 def test_the_best_of_several_additions_clears_its_chance_gain_as_often_as_one_clears_noise_factor(tried):
     # Sidak: the largest of `tried` independent normal chance gains is beyond z as often as one is

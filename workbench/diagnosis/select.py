@@ -27,7 +27,10 @@ current held-out gap: each parameter must buy `PARAM_PENALTY` of what is left
 noise floor of each addition is `widened` by what that motion explains by
 chance along the addition's own pattern, and an addition within it, or
 adding a transient fitted implausibly (`implausible_transient`), is set
-aside before the step chooses.
+aside before the step chooses. A transient event whose fitted amplitude the
+two halves of a log do not establish (`unestablished`: within
+`NOISE_FACTOR` standard errors of none, their spread folded in) is refused
+whatever it explains.
 Otherwise, the refused step is looked at once more (`_second_look`): its
 best transient event (a gust, at a time in the log) fitted beside each
 calibration within a data sheet's tolerance not selected (the hardware's
@@ -86,7 +89,8 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
     tried): a random motion's low frequencies may favour a steady effect
     that explains by chance more than another explains for real; and a
     transient event fitted implausibly is refused outright
-    (`implausible_transient`)."""
+    (`implausible_transient`). With or without it, so is a transient
+    event the logs do not establish (`unestablished`)."""
     tried = len(ok)
     selected = tuple(chosen.effects) if chosen else ()
 
@@ -94,8 +98,9 @@ def _take(ok: list, chosen: Candidate | None, current: float, floor: float,
         n_new = c.n_params - (chosen.n_params if chosen else 0)
         why = acceptance(current - c.gap_after_heldout, n_new, current, widened(floor, chance, chosen, c, tried))
         bound = implausible_transient(c, selected) if chance is not None else None
-        return why or (bound and f"is implausible beside a real random motion ({bound}): a transient the logs "
-                                 f"push to its bound is the largest burst of that motion, not an event")
+        return why or unestablished(c, selected) or (
+            bound and f"is implausible beside a real random motion ({bound}): a transient the logs "
+                      f"push to its bound is the largest burst of that motion, not an event")
     ok = [c for c in ok if verdict(c) is None] or ok
     best = choose(ok, floor, prior)
     plausible = [c for c in ok if not implausibility(c)]
@@ -181,7 +186,7 @@ def _second_look(ok: list, chosen: Candidate | None, current: float, floor: floa
         if why is None and alone is not None:
             why = acceptance(alone.gap_after_heldout - c.gap_after_heldout, c.n_params - alone.n_params,
                              alone.gap_after_heldout, widened(floor, chance, alone, c, tried))
-        why = why or implausibility(c)
+        why = why or implausibility(c) or unestablished(c, selected)
         if why is None:
             taken.append((c, event, f))
         else:
@@ -203,6 +208,33 @@ def implausible_transient(c: Candidate, selected) -> str | None:
     bound 0, was refused beside the day's 0.29 m/s air and the selection
     named a tanker wake."""
     return implausibility(c, [e for e in _added(c, tuple(selected)) if _transient(e)])
+
+
+def unestablished(c: Candidate, selected) -> str | None:
+    """Why a transient event (`_transient`: a gust) that `c` adds to the
+    `selected` effects is not established by the logs, or None: none of its
+    fitted amplitudes (its calibrated parameters but the time) lies beyond
+    `NOISE_FACTOR` standard errors of its off value, the errors holding the
+    folds' spread (`score._one_log_fit`: two fits on alternate blocks of one
+    log). An event is one thing in the log, so both halves of it must see it
+    alike; a fit whose sign the halves disagree on is a different burst in
+    each (measured on a proving-ground doublet with no event withheld: the
+    halves put a gust at -2.24 m/s at 16.96 s and +1.79 m/s at 18.61 s, the
+    whole log's -2.24 +/- 2.02 m/s, and it explained 0.0348 m of a 0.0551 m
+    held-out gap, over its 0.0312 m bar; the true gusts named in the single
+    campaign stood 5.4 and 19.7 standard errors from none). No standard
+    error (NaN) is no evidence either way."""
+    out = []
+    for e in (e for e in _added(c, tuple(selected)) if _transient(e)):
+        ps = EFFECTS[e].params
+        amps = [(k, v, (c.param_stderr or {}).get(e, {}).get(k, math.nan), ps[k])
+                for k, v in c.params.get(e, {}).items() if not ps[k].scan_s and ps[k].off is not None]
+        if amps and all(se > 0 and abs(v - p.off) <= NOISE_FACTOR * se for k, v, se, p in amps):
+            out.append(", ".join(f"{e}.{k} = {v:.3g} +/- {se:.2g} {p.unit}" for k, v, se, p in amps))
+    if not out:
+        return None
+    return (f"is not established: {'; '.join(out)}, within {NOISE_FACTOR:g} standard errors (the folds' spread "
+            f"in them) of none; an event the halves of a log see differently is a burst of each, not one event")
 
 
 def _transient(effect: str) -> bool:
