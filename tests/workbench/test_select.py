@@ -912,6 +912,19 @@ def test_only_a_transients_amplitude_is_held_to_its_standard_error():
     assert SEL.unestablished(cand(["gust"], {"gust": gust}, {"gust": {"vertical_mps": 2.02}}), ("gust",)) is None
 
 
+def test_an_unestablished_event_of_several_logs_is_not_said_to_be_split_by_halves():
+    # of one log the errors hold its two time-block folds' spread (`score._one_log_fit`); of several,
+    # the all-logs fit's: the reason names where the error came from
+    def cand(per_log):
+        return Candidate("gust", ["gust"], 2, params={"gust": {"vertical_mps": -2.24, "start_s": 16.96}},
+                         param_stderr={"gust": {"vertical_mps": 2.02}}, gap_after_all_fit_per_log=per_log)
+    one = SEL.unestablished(cand({"L1": 0.05}), ())
+    several = SEL.unestablished(cand({"L1": 0.05, "L2": 0.06}), ())
+    assert "halves of a log" in one and "folds' spread" in one
+    assert "halves" not in several and "fold" not in several and "all the family's logs" in several
+    assert "gust.vertical_mps = -2.24 +/- 2 m/s" in several
+
+
 @pytest.mark.parametrize("tried", [1, 2, 7, 30])
 def test_the_best_of_several_additions_clears_its_chance_gain_as_often_as_one_clears_noise_factor(tried):
     # Sidak: the largest of `tried` independent normal chance gains is beyond z as often as one is

@@ -223,7 +223,8 @@ def unestablished(c: Candidate, selected) -> str | None:
     whole log's -2.24 +/- 2.02 m/s, and it explained 0.0348 m of a 0.0551 m
     held-out gap, over its 0.0312 m bar; the true gusts named in the single
     campaign stood 5.4 and 19.7 standard errors from none). No standard
-    error (NaN) is no evidence either way."""
+    error (NaN) is no evidence either way. Of several logs the errors are the
+    all-logs fit's, with no fold spread in them, and the reason says so."""
     out = []
     for e in (e for e in _added(c, tuple(selected)) if _transient(e)):
         ps = EFFECTS[e].params
@@ -233,6 +234,9 @@ def unestablished(c: Candidate, selected) -> str | None:
             out.append(", ".join(f"{e}.{k} = {v:.3g} +/- {se:.2g} {p.unit}" for k, v, se, p in amps))
     if not out:
         return None
+    if len(c.gap_after_all_fit_per_log or {}) > 1:
+        return (f"is not established: {'; '.join(out)}, within {NOISE_FACTOR:g} standard errors (of the fit on "
+                f"all the family's logs) of none; the logs do not tell the event from no event")
     return (f"is not established: {'; '.join(out)}, within {NOISE_FACTOR:g} standard errors (the folds' spread "
             f"in them) of none; an event the halves of a log see differently is a burst of each, not one event")
 
