@@ -128,9 +128,8 @@ class Effect:
     apply: Optional[Callable] = field(default=None, repr=False)
     comparison_only: bool = False
     not_calibrated: Optional[str] = None   # why no parameter has a search range
-    # a difference of definition between the model and the instruments, there in
-    # every log of the hardware (not an event of one flight): the diagnosis fits
-    # it like any effect and reports it as model form
+    # a difference of definition between the model and the instruments in every log of the
+    # hardware (not an event of one flight): the diagnosis fits it and reports it as model form
     model_form: bool = False
 
     @property
@@ -352,7 +351,9 @@ _register(Effect(
            "bound vortex's near field at the tow point is the least certain part: a real wing spreads it over "
            "the chord, and the core radius stands for that. For a wing pod so is the sheet's span position: "
            "rolling up, the sheet gathers towards vortices pi/4 of the semi-span out, which trades sidewash for "
-           "downwash at the pod's hose; the lateral offset, refined once the wake is selected, stands for that."),
+           "downwash at the pod's hose; the lateral offset, refined once the wake is selected, stands for that. "
+           "So is the sheet's height (the vertical offset, 3 m either way): the sheet descends at the downwash "
+           "angle, ~0.05 rad, over the 20-30 m to a pod's drogue, and moves with the tanker's attitude."),
     source=("Anderson, Fundamentals of Aerodynamics, 5th ed., Sec. 5.3 (lifting line, elliptic loading); Katz & "
             "Plotkin, Low-Speed Aerodynamics, 2nd ed., Eq. 2.68 (Biot-Savart segment); Hallock & Burnham (1982) "
             "vortex core; Spreiter & Sacks (1951) roll-up distance; Pope, Turbulent Flows (2000), Sec. 5.2 "
@@ -360,8 +361,8 @@ _register(Effect(
     params={
         "strength": Param("-", 1.0, 0.0, 3.0, "scale on the circulation and the fuselage deficit",
                           off=0.0, search=(0.0, 3.0), probe=0.5),
-        "vertical_offset_m": Param("m", 0.0, -5.0, 5.0,
-                                   "raises the sheet (dihedral, wake descent: negative)", off=0.0),
+        "vertical_offset_m": Param("m", 0.0, -5.0, 5.0, "raises the sheet (dihedral, wake descent: negative)",
+                                   off=0.0, search=(-3.0, 3.0), probe=1.0, refined=True),
         "lateral_offset_m": Param("m", 0.0, -10.0, 10.0, "moves the whole wake to starboard", off=0.0,
                                   search=(-6.0, 6.0), probe=3.0, refined=True),
         "core_radius_m": Param("m", 1.0, 0.05, 5.0, "Hallock-Burnham core of every filament", off=1.0),
@@ -539,8 +540,7 @@ _register(Effect(
                               search=(-0.6, 0.6), probe=0.2)},
     comparison_only=True, model_form=True))
 
-# the order effects compose in: properties, then winds, then the bow wave (it aims
-# at the drogue where every other effect has put it)
+# the order effects compose in: properties, winds, then the bow wave (aimed where the others put the drogue)
 ORDER = ("drogue_lift", "drogue_drag", "hose_drag", "hose_stiffness", "reel_lag",
          "steady_wind", "tanker_wake", "turbulence", "gust", "bow_wave", "sensor_lag", "drogue_reference")
 assert set(ORDER) == set(EFFECTS)

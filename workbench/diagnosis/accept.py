@@ -46,6 +46,13 @@ def acceptance(gain: float, n_new: int, current_gap: float, floor: float) -> str
     return None
 
 
+def bar(current_gap: float, n_new: int, floor: float) -> float:
+    """The held-out gap (m) below which a change of `n_new` new parameters
+    from `current_gap` is accepted (`acceptance`, no chance widening)."""
+    return min(math.sqrt(max(current_gap ** 2 - (NOISE_FACTOR * floor) ** 2, 0.0)),
+               current_gap * (1 - PARAM_PENALTY * n_new))
+
+
 def chance_quantile(tried: int) -> float:
     """How many standard deviations of its chance gain the best of `tried`
     additions must clear so that a step takes one by chance no more often

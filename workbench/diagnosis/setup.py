@@ -102,11 +102,13 @@ def refinable(case: Case) -> tuple:
     tanker wake's span position is held for a tow point on the tanker's centre
     line (a buddy store): there the sheet's roll-up is symmetric about the
     hose and moves no sidewash, so a sideways offset could only stand in for
-    something else (a steady wind)."""
+    something else (a steady wind). Its sheet's height is refined on any
+    hardware: the sheet descends behind the wing whatever the store's span
+    station."""
     tid = case["hardware"].get("tanker")
     centre_line = bool(tid) and load_hardware().get("tanker", tid).tow_point_span_station == 0.0
     return tuple((e, name) for e, eff in EFFECTS.items() for name in eff.refined
-                 if not (e == "tanker_wake" and centre_line))
+                 if not (e == "tanker_wake" and name == "lateral_offset_m" and centre_line))
 
 
 def one_log_event(effect: str) -> str | None:
