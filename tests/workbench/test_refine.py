@@ -18,6 +18,7 @@ from workbench.diagnosis import select as SEL
 from workbench.diagnosis.fit import EffectCalibrator, effects_at
 from workbench.diagnosis.report import _selection_blocks
 from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.explanation import implausibility
 from workbench.diagnosis.setup import PARAM_PENALTY, Setup, calibrated_params, refinable
 from workbench.errors import InputError
 
@@ -182,31 +183,32 @@ def test_a_variants_refine_reaches_its_calibration_with_its_effect(tmp_path, mon
     assert [n for _, n, _ in calibrated_params(seen[0][0], seen[0][1])] == ["scale"]
 
 
-def _field_scorer(jobs: list, wind_gap: float = 0.3):
+def _field_scorer(jobs: list, wind_gap: float = 0.3, values: dict | None = None, lift: float = 0.5):
     """A steady wind that explains the log only on its search bound (a flow
     the held wake's form cannot supply), a wake that explains it only with
-    its sheet's height refined, and a lift part (0.5) only the lift explains;
-    the floor 0.01."""
+    its sheet's height refined, and a lift part (`lift`) only the lift explains;
+    the floor 0.01. Fitted values 0.5 but the wind's (6, its bound) and
+    `values`' ({(effect, parameter): value})."""
     def score(job):
         paths, cand, setup, warm = job
         jobs.append(job)
         cal = calibrated_params(cand, setup.refined)
-        x = [6.0 if e == "steady_wind" else 0.5 for e, _, _ in cal]
+        x = [(values or {}).get((e, n), 6.0 if e == "steady_wind" else 0.5) for e, n, _ in cal]
         high = "tanker_wake" in cand and HEIGHT in setup.refined
         flow = 0.0 if high else (wind_gap if "steady_wind" in cand else 0.6 if "tanker_wake" in cand else 1.0)
-        g = math.sqrt(0.01 ** 2 + flow ** 2 + (0.0 if "drogue_lift" in cand else 0.5) ** 2)
+        g = math.sqrt(0.01 ** 2 + flow ** 2 + (0.0 if "drogue_lift" in cand else lift) ** 2)
         return Candidate("+".join(cand), list(cand), len(cal), params=effects_at(cand, x, setup.refined),
                          param_stderr=effects_at(cand, [0.01] * len(cal), setup.refined), gap_after_heldout=g,
                          gap_after_train=g, folds=[{"held_out": "L1", "params": x, "gap_train": g, "gap_heldout": g}])
     return score
 
 
-def _field_select(refinable_pairs, wind_gap=0.3):
+def _field_select(refinable_pairs, wind_gap=0.3, values=None, lift=0.5):
     jobs = []
-    g0 = math.sqrt(0.01 ** 2 + 1.0 + 0.25)
+    g0 = math.sqrt(0.01 ** 2 + 1.0 + lift ** 2)
     sel = SEL.forward_select(["L1"], ["tanker_wake", "steady_wind", "drogue_lift"], Setup(),
                              lambda fn, js, progress=None: [fn(j) for j in js], g0, 0.01,
-                             score=_field_scorer(jobs, wind_gap), refinable=refinable_pairs)
+                             score=_field_scorer(jobs, wind_gap, values, lift), refinable=refinable_pairs)
     return sel, jobs
 
 
@@ -273,3 +275,29 @@ def test_a_field_refit_that_cannot_beat_the_steps_bar_fitted_on_everything_is_no
     assert [j[1] for j in pre][:1] == [("tanker_wake",)] and pre[0][2].refined == (HEIGHT,)
     assert not any(j[2].refined for j in jobs)
     assert "steady_wind" in sel.chosen.effects
+
+
+def test_a_calibration_on_its_bound_sends_no_field_to_be_refitted():
+    # the lift, a calibration, is step 1's best addition on its bound 0 (the hardware off its
+    # sheet, not a flow's stand-in); the wind never beats the held wake: no refit in the steps
+    sel, jobs = _field_select((HEIGHT,), wind_gap=2.0, values={("drogue_lift", "scale"): 0.0}, lift=2.0)
+    assert [s["added"] for s in sel.steps[:2]] == ["drogue_lift", "tanker_wake"]
+    assert "on its search bound" in implausibility(next(c for c in sel.fitted if c.effects == ["drogue_lift"]))
+    forward = {s["step"] for s in sel.steps if "added" in s}
+    assert not any(HEIGHT in j[2].refined for j in jobs[:sum(1 for c in sel.fitted if c.step in forward)])
+
+
+def test_a_form_parameter_left_on_its_bound_is_refused_and_the_rest_refined_without_it():
+    # the wake selected with its sheet held; refined, the sheet's height ends on its -3 m bound:
+    # that refinement is refused, and the span position is fitted again alone
+    sel, jobs = _field_select((HEIGHT, SPAN), wind_gap=2.0, values={("tanker_wake", "vertical_offset_m"): -3.0})
+    refines = [s for s in sel.steps if "refined" in s]
+    assert [s["refined"] for s in refines] == ["tanker_wake.vertical_offset_m, tanker_wake.lateral_offset_m",
+                                                "tanker_wake.lateral_offset_m"]
+    assert not refines[0]["accepted"]
+    first = next(c for c in sel.fitted if c.step == refines[0]["step"])
+    assert "tanker_wake.vertical_offset_m = -3 on its search bound" in first.why_not_first
+    assert [j[2].refined for j in jobs if j[2].refined][:2] == [(HEIGHT, SPAN), (SPAN,)]
+    # in this scorer only the sheet's height cuts the flow part: the span position alone
+    # earns no place, and the selected set keeps its held form
+    assert not refines[1]["accepted"] and sel.refined == ()

@@ -108,12 +108,18 @@ def implausibility(c: Candidate, effects=None) -> str | None:
         elif p.search and not p.scan_s:
             lo, hi = p.search
             se = (c.param_stderr or {}).get(eff, {}).get(name, math.nan)
-            if not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE):
+            if on_bound(p, v):
                 out.append(f"{eff}.{name} = {v:.3g} on its search bound ({lo:g}..{hi:g})")
             elif se > 0 and (v - se <= lo or v + se >= hi):    # no standard error (NaN): no evidence
                 out.append(f"{eff}.{name} = {v:.3g} +/- {se:.2g}, within a standard error of its search bound "
                            f"({lo:g}..{hi:g})")
     return "; ".join(out) or None
+
+
+def on_bound(p: Param, v: float) -> bool:
+    """Whether `v` lies within `BOUND_SHARE` of a bound of `p`'s search range
+    (in the search's scale): the logs want it there or beyond."""
+    return not (BOUND_SHARE < to_unit(p, v) < 1 - BOUND_SHARE)
 
 
 def events_of(c) -> str:

@@ -14,7 +14,7 @@ import math
 from solver.effects import EFFECTS
 from workbench.diagnosis.accept import acceptance, rescaled, simplest, widened
 from workbench.diagnosis.evaluate import gap
-from workbench.diagnosis.explanation import beyond_tolerance, implausibility
+from workbench.diagnosis.explanation import beyond_tolerance, implausibility, on_bound
 from workbench.diagnosis.fit import ordered
 from workbench.diagnosis.score import mapped, warm_start
 from workbench.diagnosis.setup import calibrated_params
@@ -25,8 +25,9 @@ def refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted
     """(the selected set, the setup it is fitted with): `chosen` refitted with
     its effects' form parameters among `refinable` free (gridded from their
     off values, the rest polished from `chosen`'s), kept when the gain earns
-    their place (`acceptance`, each a new parameter). The refinement's gain
-    is the refined effect's share."""
+    their place (`acceptance`, each a new parameter) and none ends on its
+    search bound (refined again without those that do). The refinement's
+    gain is the refined effect's share."""
     pairs = tuple(pr for pr in refinable if pr[0] in chosen.effects and pr not in setup.refined)
     if not pairs:
         return chosen, setup
@@ -40,14 +41,23 @@ def refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted
     fitted.append(c)
     current, gain = chosen.gap_after_heldout, chosen.gap_after_heldout - c.gap_after_heldout
     n_new = c.n_params - chosen.n_params
-    refused = acceptance(gain, n_new, current, widened(floor, chance, chosen, c))
+    # a form parameter the logs push onto its bound stands in for something else (on the
+    # KDC-10 trails the sheet's height went to its -3 m bound beside the span position: a
+    # trail's drogue moves as far down as out at any height): refined again without it
+    bound = [pr for pr in pairs if on_bound(EFFECTS[pr[0]].params[pr[1]], c.params[pr[0]][pr[1]])]
+    refused = (bound and "leaves " + ", ".join(f"{e}.{n} = {c.params[e][n]:.3g}" for e, n in bound)
+               + " on its search bound, standing in for something else") or \
+        acceptance(gain, n_new, current, widened(floor, chance, chosen, c))
     steps.append({"step": k, "refined": what, "candidate": c.effect, "gap_heldout_before_m": current,
                   "gap_heldout_after_m": c.gap_after_heldout, "gain_m": gain, "new_params": n_new,
-                  "accepted": refused is None, "share": gain / gap_before if gap_before else None,
+                  "accepted": not refused, "share": gain / gap_before if gap_before else None,
                   "alternatives": {}})
     if refused:
         c.why_not_first = f"step {k}: refining {what} refused, it {refused}"
         say(f"step {k}: refining {what} refused")
+        if bound and len(bound) < len(pairs):
+            return refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, say, chance,
+                          tuple(pr for pr in refinable if pr not in bound))
         return chosen, setup
     shares, effects = dict(chosen.shares or {}), {e for e, _ in pairs}
     for e in effects:
