@@ -301,3 +301,28 @@ def test_a_form_parameter_left_on_its_bound_is_refused_and_the_rest_refined_with
     # in this scorer only the sheet's height cuts the flow part: the span position alone
     # earns no place, and the selected set keeps its held form
     assert not refines[1]["accepted"] and sel.refined == ()
+
+
+def test_a_refitted_field_whose_step_is_refused_leaves_the_setup_as_it_was():
+    # a flow part within the noise: the wind on its bound and the refitted wake each explain
+    # less than twice the floor (the held wake fits worse than none), so the refitted wake,
+    # the best, is refused; nothing is selected, and nothing is said to be refined
+    floor = 0.01
+
+    def score(job):
+        paths, cand, setup, warm = job
+        cal = calibrated_params(cand, setup.refined)
+        x = [6.0 if e == "steady_wind" else 0.5 for e, _, _ in cal]
+        flow = (0.0 if HEIGHT in setup.refined else 0.04) if "tanker_wake" in cand else \
+            0.005 if "steady_wind" in cand else 0.015
+        g = math.hypot(floor, flow)
+        return Candidate("+".join(cand), list(cand), len(cal), params=effects_at(cand, x, setup.refined),
+                         param_stderr=effects_at(cand, [0.01] * len(cal), setup.refined), gap_after_heldout=g,
+                         gap_after_train=g, folds=[{"held_out": "L1", "params": x, "gap_train": g, "gap_heldout": g}])
+    sel = SEL.forward_select(["L1"], ["tanker_wake", "steady_wind"], Setup(),
+                             lambda fn, js, progress=None: [fn(j) for j in js], math.hypot(floor, 0.015), floor,
+                             score=score, refinable=(HEIGHT,))
+    step1 = sel.steps[0]
+    assert step1["candidate"] == "tanker_wake" and not step1["accepted"]
+    assert any("vertical_offset_m" in c.params.get("tanker_wake", {}) for c in sel.fitted)
+    assert sel.chosen is None and sel.refined == () and sel.to_json()["refined"] == []

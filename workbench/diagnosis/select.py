@@ -214,11 +214,11 @@ def _field_look(ok: list, chosen: Candidate | None, current: float, floor: float
     folds; the generator's 1.45 and 0.68). Refining only the selected set
     (`revise.refine`) never reaches a field the held form kept out."""
     selected = tuple(chosen.effects) if chosen else ()
-    best = choose(ok, floor, setup.prior_effects) if ok else None
+    best = choose(ok, floor, setup.prior_effects)
     # a calibration on its bound is the hardware off its sheet, no flow's stand-in (the G-III
     # doublets' drogue lift at 0.03 x its tunnel value: refitting their wake beside it took
     # 38 s of the family's 5 minutes and changed nothing)
-    events = [e for e in _added(best, selected) if e not in CALIBRATIONS] if best is not None else []
+    events = [e for e in _added(best, selected) if e not in CALIBRATIONS]
     if not events or not implausibility(best, events):
         return ok, [], {}
     jobs, olds = [], []
@@ -426,8 +426,6 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         failed += [c for c in refits if not c.success]
         fitted += [c for c in refits if c.success]
         best, refused = _take(ok, chosen, current, floor, setup.prior_effects, chance)
-        # a field taken with its form freed: the later steps fit it so
-        setup = setups.get(id(best), setup)
         (added,), freed, shares = _added(best, selected), None, {}
         if refused:
             pairs, look = _second_look(ok, chosen, current, floor, pool, dropped, paths, setup, mapper, score, prefit,
@@ -461,6 +459,8 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
         shares = {**shares, added: share - sum(shares.values()) if share is not None else None}
         best.shares = {**(chosen.shares if chosen else {}), **shares}
         chosen, current = best, best.gap_after_heldout
+        # a field accepted with its form freed: the later steps fit it so
+        setup = setups.get(id(best), setup)
         say(f"step {k}: {what} accepted, held-out gap {current:.3f} m")
     if chosen is not None:
         chosen, setup = refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted, failed, say,
