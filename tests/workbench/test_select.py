@@ -649,6 +649,23 @@ def test_an_addition_below_its_parameter_penalty_is_refused():
     assert sel.chosen.effects == ["drogue_lift", "hose_drag"]
 
 
+def test_a_refused_step_keeps_its_reason_and_the_report_shows_it():
+    # the reason was only in the refused candidate's why_not_first: the selection
+    # table said "refused" with a gain beside it and no word of why
+    from workbench.diagnosis.report import _selection_blocks
+    sel, _ = _select({"drogue_lift": 1.0, "steady_wind": 0.4}, floor=0.001, remainder=1.0)
+    js = sel.to_json()
+    last = js["steps"][-1]
+    assert not last["accepted"] and last["why"].startswith("cuts the held-out gap by")
+    assert last["why"] in sel.stopped and "why" not in js["steps"][0]
+    table = _selection_blocks({"selection": js})[0]
+    verdicts = [row[6].text for row in table.rows]
+    assert verdicts[0] == "accepted" and verdicts[-1] == "refused: " + last["why"]
+    # a diagnosis.json written before the steps kept their reason still reads
+    del last["why"]
+    assert _selection_blocks({"selection": js})[0].rows[-1][6].text == "refused"
+
+
 def test_an_effect_whose_fit_fails_leaves_the_pool():
     score = _scorer({"drogue_lift": 1.0, "tanker_wake": 0.5}, floor=0.01)
 
@@ -1074,7 +1091,7 @@ def test_the_selection_and_its_shares_are_in_the_json_the_findings_and_the_repor
     share = 100 * sel.chosen.shares["drogue_lift"]
     assert f"Forward selection added drogue_lift ({share:.0f} % of the gap" in text and "stopped because" in text
     table, para = _selection_blocks(js)
-    assert [r[6].text for r in table.rows] == ["accepted", "accepted", "refused"]
+    assert [r[6].text for r in table.rows] == ["accepted", "accepted", "refused: " + js["selection"]["steps"][2]["why"]]
     assert "tanker_wake + drogue_lift" in para.text
 
 

@@ -114,6 +114,16 @@ def _step_label(s: dict) -> str:
     return next(f"{k}: {s[k]}" for k in ("refined", "removed", "traded") if k in s)
 
 
+def _verdict(s: dict) -> str:
+    """A step's verdict, and for a refused one why (the reel's from its own
+    channel); a diagnosis.json written before steps kept their reason says
+    only that it was refused."""
+    if s["accepted"]:
+        return "accepted"
+    why = s.get("why", s.get("evidence"))
+    return f"refused: {why}" if why else "refused"
+
+
 def _selection_blocks(d: dict) -> list:
     """The forward selection: each step's change (its best addition; then
     what the revision refined, removed or traded), its gain against the gap
@@ -123,10 +133,10 @@ def _selection_blocks(d: dict) -> list:
     if not sel:
         return []
     rows = [[s["step"], Cell(esc(_step_label(s))), s["gap_heldout_before_m"], s["gap_heldout_after_m"], s["gain_m"],
-             s["new_params"], Cell("accepted" if s["accepted"] else "refused"),
+             s["new_params"], Cell(esc(_verdict(s))),
              None if s["share"] is None else 100 * s["share"]] for s in sel["steps"]]
     return [Table(["step", "change", "held-out gap before (m)", "after (m)", "gain (m)", "new parameters",
-                   "verdict", "share of the gap (%)"], rows, [6, 22, 14, 12, 12, 10, 10, 14],
+                   "verdict", "share of the gap (%)"], rows, [5, 18, 10, 9, 9, 8, 32, 9],
                   title="Forward selection"),
             Para(f"Selected: {esc(' + '.join(sel['effects']) or 'none')}; stopped: {esc(sel['stopped'])}.")]
 

@@ -51,7 +51,7 @@ def refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted
     steps.append({"step": k, "refined": what, "candidate": c.effect, "gap_heldout_before_m": current,
                   "gap_heldout_after_m": c.gap_after_heldout, "gain_m": gain, "new_params": n_new,
                   "accepted": not refused, "share": gain / gap_before if gap_before else None,
-                  "alternatives": {}})
+                  "alternatives": {}, **({"why": refused} if refused else {})})
     if refused:
         c.why_not_first = f"step {k}: refining {what} refused, it {refused}"
         say(f"step {k}: refining {what} refused")

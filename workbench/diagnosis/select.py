@@ -391,7 +391,8 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
             steps.append({"step": 0, "added": "+".join(standing), "candidate": c.effect, "standing": True,
                           "gap_heldout_before_m": current, "gap_heldout_after_m": c.gap_after_heldout,
                           "gain_m": gain, "new_params": c.n_params, "accepted": gain > 0.0,
-                          "share": gain / gap_before if gap_before else None, "alternatives": {}})
+                          "share": gain / gap_before if gap_before else None, "alternatives": {},
+                          **({} if gain > 0.0 else {"why": "does not cut the held-out gap"})})
             if gain > 0.0:
                 c.shares = {e: steps[-1]["share"] / len(standing) for e in standing}
                 chosen, current = c, c.gap_after_heldout
@@ -446,7 +447,8 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
                       "gap_heldout_before_m": current,
                       "gap_heldout_after_m": best.gap_after_heldout, "gain_m": gain, "new_params": n_new,
                       "accepted": refused is None, "share": gain / gap_before if gap_before else None,
-                      "alternatives": {c.effect: c.gap_after_heldout for c in ok if c is not best}})
+                      "alternatives": {c.effect: c.gap_after_heldout for c in ok if c is not best},
+                      **({"why": refused} if refused else {})})
         what = added_label(steps[-1])
         for c in ok:
             if c is not best and not c.why_not_first:
@@ -502,7 +504,8 @@ def with_random(sel: Selection, alone: Candidate, joint: Candidate | None, gap_b
     k = sel.steps[-1]["step"] + 1 if sel.steps else 1
     step = {"step": k, "added": "turbulence", "candidate": cand.effect, "gap_heldout_before_m": current,
             "gap_heldout_after_m": cand.gap_after_heldout, "gain_m": gain, "new_params": 1,
-            "accepted": not refused, "share": gain / gap_before if gap_before else None, "alternatives": {}}
+            "accepted": not refused, "share": gain / gap_before if gap_before else None, "alternatives": {},
+            **({"why": refused} if refused else {})}
     cand.step = k
     if refused:
         cand.why_not_first = cand.why_not_first or f"adding turbulence refused, it {refused}"
