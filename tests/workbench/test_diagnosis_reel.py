@@ -79,6 +79,8 @@ def test_the_reel_lag_joins_the_selected_set_from_its_own_evidence_with_no_share
     assert alone.gap_after_heldout == g0
     refused = with_reel(sel, none, _evidence(1.5))
     assert refused.chosen is sel.chosen and not refused.steps[-1]["accepted"]
+    # the step's reason is the reel channel's, and an accepted step has none
+    assert refused.steps[-1]["why"] == "ratio 1.5" and out.steps[-1]["why"] is None
     assert all("refused" in c.why_not_first for c in refused.fitted if EFFECT in c.effects)
 
 

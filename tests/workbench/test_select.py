@@ -657,7 +657,11 @@ def test_a_refused_step_keeps_its_reason_and_the_report_shows_it():
     js = sel.to_json()
     last = js["steps"][-1]
     assert not last["accepted"] and last["why"].startswith("cuts the held-out gap by")
-    assert last["why"] in sel.stopped and "why" not in js["steps"][0]
+    assert last["why"] in sel.stopped and js["steps"][0]["why"] is None
+    # every step says the same things, whoever made it: one builder (`result.selection_step`)
+    said = {"step", "candidate", "gap_heldout_before_m", "gap_heldout_after_m", "gain_m", "new_params", "accepted",
+            "why", "share", "alternatives"}
+    assert all(said <= set(s) for s in js["steps"])
     table = _selection_blocks({"selection": js})[0]
     verdicts = [row[6].text for row in table.rows]
     assert verdicts[0] == "accepted" and verdicts[-1] == "refused: " + last["why"]

@@ -35,7 +35,7 @@ from flighttest import LogError
 from flighttest.metrics.reel import RESPONSE_KEYS, ReelResponse, fit_reel_response, held_out_misfit, misfit
 from flighttest.reel import reel_track
 from flighttest.residual import rms
-from workbench.diagnosis.result import Candidate
+from workbench.diagnosis.result import Candidate, selection_step
 from workbench.diagnosis.select import Selection
 from workbench.diagnosis.setup import NOISE_FACTOR
 
@@ -144,9 +144,8 @@ def with_reel(sel: Selection, none: Candidate, evidence: ReelEvidence) -> Select
     extra = [variant(c, evidence) for c in bases]
     current = (sel.chosen or none).gap_after_heldout
     k = sel.steps[-1]["step"] + 1 if sel.steps else 1
-    step = {"step": k, "added": EFFECT, "candidate": extra[0].effect, "gap_heldout_before_m": current,
-            "gap_heldout_after_m": current, "gain_m": 0.0, "new_params": 1, "accepted": evidence.event,
-            "share": 0.0, "alternatives": {}, "evidence": evidence.why()}
+    step = selection_step(k, {"added": EFFECT}, extra[0].effect, current, current, 1,
+                          why=None if evidence.event else evidence.why(), gap_before=none.gap_before)
     for c in extra:
         c.step = k
     if not evidence.event:

@@ -115,13 +115,11 @@ def _step_label(s: dict) -> str:
 
 
 def _verdict(s: dict) -> str:
-    """A step's verdict, and for a refused one why (the reel's from its own
-    channel); a diagnosis.json written before steps kept their reason says
-    only that it was refused."""
+    """A step's verdict, and for a refused one why; a diagnosis.json written
+    before steps kept their reason says only that it was refused."""
     if s["accepted"]:
         return "accepted"
-    why = s.get("why", s.get("evidence"))
-    return f"refused: {why}" if why else "refused"
+    return f"refused: {s['why']}" if s.get("why") else "refused"
 
 
 def _selection_blocks(d: dict) -> list:

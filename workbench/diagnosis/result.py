@@ -10,6 +10,22 @@ from typing import Optional
 import pandas as pd
 
 
+def selection_step(k: int, change: dict, candidate: str, before_m: float, after_m: float, new_params: int,
+                   why: str | None = None, gap_before: float | None = None, alternatives: dict | None = None) -> dict:
+    """One selection step as diagnosis.json keeps it: its number `k`; the
+    `change` it tried ({"added": effect}, with "freed" or "standing" where
+    they apply; {"refined": ...}, {"removed": ...} or {"traded": ...}); the
+    `candidate` set that made it; the held-out gap before and after it (m)
+    and the gain; the parameters it adds; accepted unless `why` says why
+    not (None when accepted); its share of the baseline's held-out gap
+    `gap_before` (None where the gain is no share of it: a removal, a trade);
+    and the `alternatives` it tried ({set: held-out gap, m})."""
+    gain = before_m - after_m
+    return {"step": k, **change, "candidate": candidate, "gap_heldout_before_m": before_m,
+            "gap_heldout_after_m": after_m, "gain_m": gain, "new_params": new_params, "accepted": why is None,
+            "why": why, "share": gain / gap_before if gap_before else None, "alternatives": alternatives or {}}
+
+
 def added_label(step: dict) -> str:
     """What a selection step added, in words: the effect, and the
     calibration freed beside it where the step's second look took a pair."""

@@ -16,6 +16,7 @@ from workbench.diagnosis.accept import acceptance, rescaled, simplest, widened
 from workbench.diagnosis.evaluate import gap
 from workbench.diagnosis.explanation import beyond_tolerance, implausibility, on_bound
 from workbench.diagnosis.fit import ordered
+from workbench.diagnosis.result import selection_step
 from workbench.diagnosis.score import mapped, warm_start
 from workbench.diagnosis.setup import calibrated_params
 
@@ -48,10 +49,8 @@ def refine(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitted
     refused = (bound and "leaves " + ", ".join(f"{e}.{n} = {c.params[e][n]:.3g}" for e, n in bound)
                + " on its search bound, standing in for something else") or \
         acceptance(gain, n_new, current, widened(floor, chance, chosen, c))
-    steps.append({"step": k, "refined": what, "candidate": c.effect, "gap_heldout_before_m": current,
-                  "gap_heldout_after_m": c.gap_after_heldout, "gain_m": gain, "new_params": n_new,
-                  "accepted": not refused, "share": gain / gap_before if gap_before else None,
-                  "alternatives": {}, **({"why": refused} if refused else {})})
+    steps.append(selection_step(k, {"refined": what}, c.effect, current, c.gap_after_heldout, n_new,
+                                why=refused, gap_before=gap_before))
     if refused:
         c.why_not_first = f"step {k}: refining {what} refused, it {refused}"
         say(f"step {k}: refining {what} refused")
@@ -102,9 +101,8 @@ def backward(chosen, paths, setup, mapper, score, floor, gap_before, steps, fitt
             return chosen, stopped
         cost, e, c, without = min(costs, key=lambda t: t[0])
         k = steps[-1]["step"] + 1
-        steps.append({"step": k, "removed": e, "candidate": c.effect if c is not None else "none",
-                      "gap_heldout_before_m": chosen.gap_after_heldout, "gap_heldout_after_m": without,
-                      "gain_m": -cost, "new_params": 0, "accepted": True, "share": None, "alternatives": {}})
+        steps.append(selection_step(k, {"removed": e}, c.effect if c is not None else "none",
+                                    chosen.gap_after_heldout, without, 0))
         say(f"step {k}: {e} removed, held-out gap {without:.3f} m")
         stopped = f"{stopped}; then {e} removed (added back it would not earn its place)"
         chosen.why_not_first = f"step {k}: {e} removed, added back it would not earn its place"
@@ -201,11 +199,9 @@ def trade(chosen, paths, pool, dropped, setup, mapper, score, floor, gap_before,
         e, f, c = min(ok, key=lambda t: simplest(t[2], prior))
         c.step = k
         what = f"{e} traded for {f}" if e else f"{f} added"
-        steps.append({"step": k, "traded": what, "candidate": c.effect,
-                      "gap_heldout_before_m": chosen.gap_after_heldout, "gap_heldout_after_m": c.gap_after_heldout,
-                      "gain_m": chosen.gap_after_heldout - c.gap_after_heldout,
-                      "new_params": c.n_params - chosen.n_params, "accepted": True, "share": None,
-                      "alternatives": {t[2].effect: t[2].gap_after_heldout for t in trades if t[2] is not c}})
+        tried = {t[2].effect: t[2].gap_after_heldout for t in trades if t[2] is not c}
+        steps.append(selection_step(k, {"traded": what}, c.effect, chosen.gap_after_heldout, c.gap_after_heldout,
+                                    c.n_params - chosen.n_params, alternatives=tried))
         say(f"step {k}: {what}, held-out gap {c.gap_after_heldout:.3f} m, naming {named(c)} event(s)")
         stopped = f"{stopped}; then {what} (as well held out, naming fewer events)"
         chosen.why_not_first = f"step {k}: {what}, naming fewer events within the noise floor"

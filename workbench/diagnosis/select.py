@@ -65,7 +65,7 @@ from solver.effects import EFFECTS
 from workbench.diagnosis.accept import acceptance, bar, choose, widened
 from workbench.diagnosis.explanation import implausibility
 from workbench.diagnosis.fit import ordered
-from workbench.diagnosis.result import Candidate, added_label
+from workbench.diagnosis.result import Candidate, added_label, selection_step
 from workbench.diagnosis.revise import CALIBRATIONS, at_sheet, backward, refine, trade
 from workbench.diagnosis.score import mapped, score_candidate, warm_start
 from workbench.diagnosis.setup import (LIGHT_TURBULENCE_MPS, MAX_EFFECTS, NOISE_FACTOR, PARAM_PENALTY,
@@ -388,11 +388,9 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
             c.step = 0
             fitted.append(c)
             gain = current - c.gap_after_heldout
-            steps.append({"step": 0, "added": "+".join(standing), "candidate": c.effect, "standing": True,
-                          "gap_heldout_before_m": current, "gap_heldout_after_m": c.gap_after_heldout,
-                          "gain_m": gain, "new_params": c.n_params, "accepted": gain > 0.0,
-                          "share": gain / gap_before if gap_before else None, "alternatives": {},
-                          **({} if gain > 0.0 else {"why": "does not cut the held-out gap"})})
+            steps.append(selection_step(0, {"added": "+".join(standing), "standing": True}, c.effect, current,
+                                        c.gap_after_heldout, c.n_params, gap_before=gap_before,
+                                        why=None if gain > 0.0 else "does not cut the held-out gap"))
             if gain > 0.0:
                 c.shares = {e: steps[-1]["share"] / len(standing) for e in standing}
                 chosen, current = c, c.gap_after_heldout
@@ -441,14 +439,10 @@ def forward_select(paths: list, pool: list, setup, mapper: Callable, gap_before:
                 alone = next((c for c in ok if set(c.effects) == set(selected) | {freed}), None)
                 shares = {freed: max(current - alone.gap_after_heldout, 0.0) / gap_before
                           if alone is not None and gap_before else 0.0}
-        n_new = best.n_params - (chosen.n_params if chosen else 0)
-        gain = current - best.gap_after_heldout
-        steps.append({"step": k, "added": added, **({"freed": freed} if freed else {}), "candidate": best.effect,
-                      "gap_heldout_before_m": current,
-                      "gap_heldout_after_m": best.gap_after_heldout, "gain_m": gain, "new_params": n_new,
-                      "accepted": refused is None, "share": gain / gap_before if gap_before else None,
-                      "alternatives": {c.effect: c.gap_after_heldout for c in ok if c is not best},
-                      **({"why": refused} if refused else {})})
+        steps.append(selection_step(k, {"added": added, **({"freed": freed} if freed else {})}, best.effect, current,
+                                    best.gap_after_heldout, best.n_params - (chosen.n_params if chosen else 0),
+                                    why=refused, gap_before=gap_before,
+                                    alternatives={c.effect: c.gap_after_heldout for c in ok if c is not best}))
         what = added_label(steps[-1])
         for c in ok:
             if c is not best and not c.why_not_first:
@@ -495,17 +489,14 @@ def with_random(sel: Selection, alone: Candidate, joint: Candidate | None, gap_b
     cand = joint if sel.chosen is not None else alone
     if cand is None:
         return dataclasses.replace(sel, fitted=sel.fitted + extra)
-    gain = current - cand.gap_after_heldout
     sigma, se = estimate.sigma_mps, estimate.stderr_mps
     refused = ((not estimate.real and f"shows no random motion above the noise: {estimate.why}") or (
         sigma < LIGHT_TURBULENCE_MPS
         and f"has sigma {sigma:.2f} +/- {se:.2f} m/s, calmer than light turbulence ({LIGHT_TURBULENCE_MPS:g} m/s, "
-            f"MIL-HDBK-1797): the air of every flight"))
+            f"MIL-HDBK-1797): the air of every flight")) or None
     k = sel.steps[-1]["step"] + 1 if sel.steps else 1
-    step = {"step": k, "added": "turbulence", "candidate": cand.effect, "gap_heldout_before_m": current,
-            "gap_heldout_after_m": cand.gap_after_heldout, "gain_m": gain, "new_params": 1,
-            "accepted": not refused, "share": gain / gap_before if gap_before else None, "alternatives": {},
-            **({"why": refused} if refused else {})}
+    step = selection_step(k, {"added": "turbulence"}, cand.effect, current, cand.gap_after_heldout, 1, why=refused,
+                          gap_before=gap_before)
     cand.step = k
     if refused:
         cand.why_not_first = cand.why_not_first or f"adding turbulence refused, it {refused}"
