@@ -1,6 +1,5 @@
 """Case files: checked at the edge, one-line errors, and the `workbench run` verb."""
 import json
-import re
 from pathlib import Path
 
 import pytest
@@ -9,9 +8,9 @@ from click.testing import CliRunner
 from flighttest import read_record
 from workbench.cases import build_model, case_log_paths, load_case
 from workbench.cli import cli
-from workbench.errors import InputError
 from workbench.hardware import load_hardware
 from workbench.properties.store import load_library
+from tests.workbench import assert_case_refused
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "cases" / "demo" / "kdc10_doublet_demo.toml"
@@ -73,13 +72,7 @@ def test_demo_case_builds_the_data_sheet_hose():
      r"'c' needs both calibrate \(effects\) and calibrate_on"),
 ])
 def test_bad_case_gives_one_line_error(tmp_path, old, new, pattern):
-    p = edited(tmp_path, old, new)
-    with pytest.raises(InputError) as err:
-        build_model(load_case(p))
-    msg = str(err.value)
-    assert "\n" not in msg
-    assert msg.startswith(str(p))
-    assert re.search(pattern, msg), msg
+    assert_case_refused(edited(tmp_path, old, new), pattern)
 
 
 def test_cli_run_writes_outputs(tmp_path):

@@ -1,7 +1,6 @@
 """Effects in case files and on the command line: [effects.NAME] tables and
 `workbench run CASE --effect NAME:param=value`, checked with one-line errors."""
 import json
-import re
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +14,7 @@ from workbench.cli import cli
 from workbench.effects_case import parse_effect_options, with_effects
 from workbench.effects_compare import apply_comparison_effects, shift_series, with_tracker_delay
 from workbench.errors import InputError
+from tests.workbench import assert_case_refused
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "cases" / "demo" / "kdc10_doublet_demo.toml"
@@ -68,13 +68,7 @@ scale = 1.2
     ("[effects.reel_lag]\n", r"\[effects.reel_lag\] needs the drum reel mode"),
 ])
 def test_bad_effects_give_one_line_errors_naming_file_table_key(tmp_path, extra, pattern):
-    p = with_text(tmp_path, extra)
-    with pytest.raises(InputError) as err:
-        build_model(load_case(p))
-    msg = str(err.value)
-    assert "\n" not in msg
-    assert msg.startswith(str(p))
-    assert re.search(pattern, msg), msg
+    assert_case_refused(with_text(tmp_path, extra), pattern)
 
 
 def test_tanker_wake_needs_the_weight_and_the_data_sheet(tmp_path):
